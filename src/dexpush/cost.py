@@ -1,0 +1,128 @@
+"""The state cost of the paper's MPPI (eq. 9) and the collision test of Task III.
+
+    StateCost = φ(x_T) + Σ_t [ l(x_t) + P(x_t) ]                                  (9a)
+    φ(x)  = q_f · d²(q_sb, q_g)                                                     (9b)
+    l(x)  = q_r1 · d²(q_sb, q_g) + q_r2 · ReLU(‖p_sc − p_sb‖ − r_s)                (9c, 9d)
+    P(x)  = C_pen if isCollision(x) else 0                                          (9e)
+    d²(q₁, q₂) = ‖Δp‖² + c · (1 − cos Δθ)        ("decoupled distance")
+
+Obstacles are discs ``(c_x, c_y, radius)``. ``isCollision`` covers both the object's
+footprint (not inflated) and the pusher disc (SPEC §4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from dexpush import fastmath
+from dexpush.geometry import Shape
+from dexpush.model import State, components
+
+__all__ = ["CostWeights", "Scene", "decoupled_distance_sq", "running_cost", "terminal_cost", "collides"]
+
+
+@dataclass(frozen=True)
+class CostWeights:
+    """Gains and constants of eq. (9), defaults from the paper's Table II."""
+
+    q_f: float = 5000.0   #: terminal gain
+    q_r1: float = 100.0   #: running gain on the decoupled distance
+    q_r2: float = 1e4     #: gain of the pusher-proximity ReLU
+    c: float = 0.1        #: heading weight in the decoupled distance (m²)
+    r_s: float = 0.2      #: pusher may roam this far (m) from the object's reference for free
+    C_pen: float = 1e13   #: collision penalty
+
+
+@dataclass(frozen=True)
+class Scene:
+    """What the cost needs to know about the world: goal, obstacles and the object's footprint.
+
+    Built with :meth:`make`; the arrays are jnp so that a Scene can be passed into jit.
+    """
+
+    goal: jnp.ndarray            #: (3,) goal pose [x, y, θ]
+    obstacles: jnp.ndarray       #: (M, 3) discs [c_x, c_y, radius]; M may be 0
+    edge_a: jnp.ndarray          #: (E, 2) footprint edge starts in {B}
+    edge_b: jnp.ndarray          #: (E, 2) footprint edge ends in {B}
+    pusher_radius: float
+
+    @staticmethod
+    def make(shape: Shape, goal: object, obstacles: object = ()) -> Scene:
+        g = np.asarray(goal, dtype=np.float64)
+        if g.shape != (3,) or not np.all(np.isfinite(g)):
+            raise ValueError(f"goal must be a finite pose (x, y, θ), got {goal!r}")
+        obs = np.asarray(obstacles, dtype=np.float64).reshape(-1, 3) if len(obstacles) else np.zeros((0, 3))
+        if not np.all(np.isfinite(obs)) or np.any(obs[:, 2] <= 0):
+            raise ValueError(f"obstacles must be finite discs (c_x, c_y, radius > 0), got {obstacles!r}")
+        a, b = shape.edges
+        return Scene(jnp.asarray(g), jnp.asarray(obs), jnp.asarray(a), jnp.asarray(b), shape.pusher_radius)
+
+
+jax.tree_util.register_dataclass(
+    Scene, data_fields=["goal", "obstacles", "edge_a", "edge_b"], meta_fields=["pusher_radius"])
+
+
+def _distance_sq(x: jnp.ndarray, y: jnp.ndarray, th: jnp.ndarray, goal: jnp.ndarray, c: float) -> jnp.ndarray:
+    dx, dy = x - goal[0], y - goal[1]
+    return dx * dx + dy * dy + c * (1.0 - fastmath.cos(th - goal[2]))
+
+
+def decoupled_distance_sq(q: jnp.ndarray, goal: jnp.ndarray, c: float) -> jnp.ndarray:
+    """d² = ‖Δp‖² + c·(1 − cos Δθ) for poses q (..., 3) against a goal (3,)."""
+    return _distance_sq(q[..., 0], q[..., 1], q[..., 2], goal, c)
+
+
+def _segment_distance(p: jnp.ndarray, a: jnp.ndarray, b: jnp.ndarray) -> jnp.ndarray:
+    """Distance from points p (..., 2) to segments a→b (E, 2): (..., E)."""
+    ab = b - a
+    ap = p[..., None, :] - a
+    t = jnp.clip(jnp.sum(ap * ab, -1) / jnp.sum(ab * ab, -1), 0.0, 1.0)
+    d = ap - t[..., None] * ab
+    return jnp.sqrt(jnp.sum(d * d, -1))
+
+
+def collides(x: State, scene: Scene) -> jnp.ndarray:
+    """isCollision (9e): object footprint or pusher disc overlaps an obstacle disc; (...,) bool.
+
+    The footprint test is exact for an obstacle that crosses the outline (distance from
+    the disc centre to the footprint edges); a disc wholly inside the footprint is caught
+    by a point-in-polygon test of its centre (crossing-number over all edges, valid for
+    the union shapes because their pieces only touch or overlap inside).
+    """
+    xb, yb, th, xc, yc = components(x)
+    if scene.obstacles.shape[0] == 0:
+        return jnp.zeros(jnp.shape(xb), dtype=bool)
+    o = scene.obstacles
+    dx = o[:, 0] - xb[..., None]                                    # (..., M)
+    dy = o[:, 1] - yb[..., None]
+    s, c = fastmath.sincos(th[..., None])
+    ob = jnp.stack([c * dx + s * dy, -s * dx + c * dy], -1)          # centres in {B}: (..., M, 2)
+    edge_d = jnp.min(_segment_distance(ob, scene.edge_a, scene.edge_b), -1)
+    a, b = scene.edge_a, scene.edge_b
+    py = ob[..., 1, None]
+    crosses = (a[:, 1] > py) != (b[:, 1] > py)
+    xi = a[:, 0] + (py - a[:, 1]) * (b[:, 0] - a[:, 0]) / jnp.where(b[:, 1] == a[:, 1], 1.0, b[:, 1] - a[:, 1])
+    inside = jnp.sum(crosses & (ob[..., 0, None] < xi), -1) % 2 == 1
+    obj_hit = (edge_d < o[:, 2]) | inside
+    pdx, pdy = xc[..., None] - o[:, 0], yc[..., None] - o[:, 1]
+    pusher_hit = pdx * pdx + pdy * pdy < (o[:, 2] + scene.pusher_radius) ** 2
+    return jnp.any(obj_hit | pusher_hit, -1)
+
+
+def running_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
+    """l(x) + P(x) of eq. (9c–9e) for states x ((..., 5) array or 5-tuple)."""
+    xb, yb, th, xc, yc = components(x)
+    d2 = _distance_sq(xb, yb, th, scene.goal, w.c)
+    gap = jnp.sqrt((xc - xb) ** 2 + (yc - yb) ** 2)
+    cost = w.q_r1 * d2 + w.q_r2 * jnp.maximum(gap - w.r_s, 0.0)
+    return cost + jnp.where(collides(x, scene), w.C_pen, 0.0)
+
+
+def terminal_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
+    """φ(x_T) of eq. (9b)."""
+    xb, yb, th, *_ = components(x)
+    return w.q_f * _distance_sq(xb, yb, th, scene.goal, w.c)
