@@ -195,9 +195,9 @@ def test_alpha_has_no_effect_on_velocity_model_but_scales_force_motion() -> None
 
 def test_pulling_away_or_out_of_contact_is_free() -> None:
     shape = shapes()["ellipse"]
-    x, u, lam, phi = contact_states(shape, np.random.default_rng(4), 300, depth=1e-3)
+    x, _, lam, phi = contact_states(shape, np.random.default_rng(4), 300, depth=1e-3)
     # velocity along the outward normal, in {S}
-    r, dr = (np.asarray(a, np.float64) for a in shape.contour(phi))
+    _, dr = (np.asarray(a, np.float64) for a in shape.contour(phi))
     n_out = np.stack([dr[:, 1], -dr[:, 0]], -1) / np.linalg.norm(dr, axis=-1, keepdims=True)
     th = x[:, 2]
     c, s = np.cos(th), np.sin(th)

@@ -3,5 +3,5 @@
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, MODE_NAMES, cgvmm, contact_solution, force_motion
 
-__all__ = ["Shape", "cgvmm", "contact_solution", "force_motion", "LAMBDA_TRUE", "MODE_NAMES"]
+__all__ = ["LAMBDA_TRUE", "MODE_NAMES", "Shape", "cgvmm", "contact_solution", "force_motion"]
 __version__ = "0.1.0"

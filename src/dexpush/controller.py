@@ -24,7 +24,7 @@ from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, Contour, check_params, step
 from dexpush.mppi import MPPI, MPPIResult, MPPISettings
 
-__all__ = ["PushingController", "ControllerSettings"]
+__all__ = ["ControllerSettings", "PushingController"]
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ from dexpush import fastmath
 from dexpush.geometry import Shape
 from dexpush.model import State, components
 
-__all__ = ["CostWeights", "Scene", "decoupled_distance_sq", "running_cost", "terminal_cost", "collides"]
+__all__ = ["CostWeights", "Scene", "collides", "decoupled_distance_sq", "running_cost", "terminal_cost"]
 
 
 @dataclass(frozen=True)

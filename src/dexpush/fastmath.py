@@ -19,7 +19,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["atan2", "sincos", "cos"]
+__all__ = ["atan2", "cos", "sincos"]
 
 _ATAN = (-0.3333314528, 0.1999355085, -0.1420889944, 0.1065626393,
          -0.0752896400, 0.0429096138, -0.0161657367, 0.0028662257)

@@ -38,9 +38,23 @@ from dexpush import fastmath
 from dexpush.geometry import Shape, contour_lookup
 
 __all__ = [
-    "STICK", "SLIDE_CCW", "SLIDE_CW", "FREE", "MODE_NAMES", "LAMBDA_TRUE",
-    "Contour", "ContactSolution", "solve_contact", "cgvmm", "force_motion", "step",
-    "integrate", "resolve_penetration", "contact_gap", "CONTACT_TOL", "components",
+    "CONTACT_TOL",
+    "FREE",
+    "LAMBDA_TRUE",
+    "MODE_NAMES",
+    "SLIDE_CCW",
+    "SLIDE_CW",
+    "STICK",
+    "ContactSolution",
+    "Contour",
+    "cgvmm",
+    "components",
+    "contact_gap",
+    "force_motion",
+    "integrate",
+    "resolve_penetration",
+    "solve_contact",
+    "step",
 ]
 
 STICK, SLIDE_CCW, SLIDE_CW, FREE = 0, 1, 2, 3
@@ -294,7 +308,7 @@ def _float_arrays(**arrays: object) -> tuple[jnp.ndarray, ...]:
     for name, a in arrays.items():
         try:
             arr = np.asarray(a)
-        except Exception as exc:  # noqa: BLE001 - turn anything unconvertible into a clear error
+        except Exception as exc:
             raise ValueError(f"{name} must be a numeric array, got {type(a).__name__}") from exc
         if arr.dtype == object or not np.issubdtype(arr.dtype, np.number):
             raise ValueError(f"{name} must be a numeric array, got dtype {arr.dtype}")

@@ -23,7 +23,7 @@ import numpy as np
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, Contour, check_params, contact_gap, integrate
 
-__all__ = ["Observation", "ModelPlant"]
+__all__ = ["ModelPlant", "Observation"]
 
 
 @dataclass(frozen=True)

@@ -18,8 +18,17 @@ import numpy as np
 
 from dexpush.geometry import Shape
 
-__all__ = ["Task", "TASKS", "get_task", "initial_conditions", "pose_error", "is_success",
-           "SUCCESS_POSITION_M", "SUCCESS_HEADING_DEG", "MAX_STEPS"]
+__all__ = [
+    "MAX_STEPS",
+    "SUCCESS_HEADING_DEG",
+    "SUCCESS_POSITION_M",
+    "TASKS",
+    "Task",
+    "get_task",
+    "initial_conditions",
+    "is_success",
+    "pose_error",
+]
 
 SUCCESS_POSITION_M = 0.008
 SUCCESS_HEADING_DEG = 3.0

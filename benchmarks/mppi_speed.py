@@ -1,0 +1,233 @@
+"""MPPI iteration speed: dexpush (JAX) against pytorch-mppi driving the same dynamics and cost.
+
+    python benchmarks/mppi_speed.py            # full table
+    python benchmarks/mppi_speed.py --quick    # fewer repeats, K ∈ {256, 1024}
+    python benchmarks/mppi_speed.py --ops      # also time XLA's transcendental ops
+
+Problem: Task I, ``rect``, λ_true, N_p = 25, pusher behind the box. One "iteration" is
+sampling, rollout of every sample through the C-GVMM, cost, weighting and the update
+(dexpush: ``MPPI.optimize`` + ``shift``; pytorch-mppi: ``MPPI.command``). Medians of
+``--repeats`` timed calls after warm-up. The torch port of the C-GVMM step below mirrors
+``dexpush.model`` line by line (same tables, same penetration fix) and lives here only.
+The last line printed is JSON with ``ms_per_iteration_K1024`` and ``speedup_vs_pytorch_mppi``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from dexpush import Shape
+from dexpush.controller import ControllerSettings, PushingController
+from dexpush.model import LAMBDA_TRUE
+from dexpush.mppi import MPPISettings, mppi_iteration
+
+TARGET_MS = 1.5
+
+
+def median_ms(fn, repeats: int) -> float:
+    fn()
+    fn()
+    ts = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return float(np.median(ts) * 1e3)
+
+
+def dexpush_iteration(K: int, repeats: int) -> float:
+    shape = Shape.rectangle()
+    ctrl = PushingController(shape, (0.6, 0.3, 0.0), settings=ControllerSettings(mppi=MPPISettings(num_samples=K)))
+    x0 = tuple(jnp.float32(v) for v in (0.0, 0.0, 0.0, -0.15, 0.0))
+    key = jax.random.PRNGKey(0)
+    U = ctrl.planner.initial_sequence()
+
+    def once() -> None:
+        res = ctrl.planner.optimize(key, U, x0, ctrl._params, ctrl.scene)
+        ctrl.planner.shift(res.sequence).block_until_ready()
+
+    return median_ms(once, repeats)
+
+
+def dexpush_batched(problems: int, K: int, repeats: int) -> float:
+    """``problems`` independent MPPI problems (e.g. benchmark trials) in one vmapped call."""
+    shape = Shape.rectangle()
+    ctrl = PushingController(shape, (0.6, 0.3, 0.0), settings=ControllerSettings(mppi=MPPISettings(num_samples=K)))
+    planner = ctrl.planner
+    it = jax.jit(jax.vmap(lambda k, U, x0, p: planner._iterate(k, U, x0, p, ctrl.scene)))
+    keys = jax.random.split(jax.random.PRNGKey(0), problems)
+    U = jnp.zeros((problems, 25, 2))
+    rng = np.random.default_rng(0)
+    x0 = tuple(jnp.asarray(rng.uniform(-0.02, 0.02, problems) + off, jnp.float32)
+               for off in (0.0, 0.0, 0.0, -0.15, 0.0))
+    p = jnp.tile(jnp.asarray(LAMBDA_TRUE, jnp.float32), (problems, 1))
+    return median_ms(lambda: it(keys, U, x0, p).sequence.block_until_ready(), repeats)
+
+
+# ---------------------------------------------------------------------------- torch port
+def torch_problem(shape: Shape, settings: MPPISettings):
+    import torch
+
+    coeff = torch.tensor(shape.coefficients, dtype=torch.float32)
+    n = coeff.shape[0]
+    h = 2 * np.pi / n
+    lam = torch.tensor(LAMBDA_TRUE)
+    mu = 0.3
+    dts = torch.tensor(settings.step_durations(), dtype=torch.float32)
+    goal = torch.tensor([0.6, 0.3, 0.0])
+
+    def frame(px, py):
+        phi = torch.atan2(py, px)
+        dist = torch.sqrt(px * px + py * py)
+        c, s = px / dist, py / dist
+        sidx = (phi + np.pi) / h
+        i0 = torch.floor(sidx)
+        t = sidx - i0
+        cc = coeff[i0.long() % n]
+        R = cc[:, 0] + t * (cc[:, 1] + t * (cc[:, 2] + t * cc[:, 3]))
+        dR = (cc[:, 1] + t * (2 * cc[:, 2] + t * 3 * cc[:, 3])) / h
+        rx, ry = R * c, R * s
+        drx, dry = dR * c - R * s, dR * s + R * c
+        ndr = torch.sqrt(drx * drx + dry * dry)
+        tx, ty = drx / ndr, dry / ndr
+        return dist, R, rx, ry, ndr, -ty, tx, tx, ty
+
+    def to_body(x):
+        cth, sth = torch.cos(x[:, 2]), torch.sin(x[:, 2])
+        dx, dy = x[:, 3] - x[:, 0], x[:, 4] - x[:, 1]
+        return cth, sth, cth * dx + sth * dy, -sth * dx + cth * dy
+
+    beta, xf, yf = lam
+    b2 = beta * beta
+    M = (1 + b2 * yf * yf, -b2 * xf * yf, b2 * yf, 1 + b2 * xf * xf, -b2 * xf, b2)
+
+    def mul(v):
+        return (M[0] * v[0] + M[1] * v[1] + M[2] * v[2], M[1] * v[0] + M[3] * v[1] + M[4] * v[2],
+                M[2] * v[0] + M[4] * v[1] + M[5] * v[2])
+
+    def dynamics(x, u, t):
+        dt = dts[t]
+        cth, sth, px, py = to_body(x)
+        dist, R, rx, ry, ndr, nx, ny, tx, ty = frame(px, py)
+        contact = dist <= R + 1e-6
+        vbx, vby = cth * u[:, 0] + sth * u[:, 1], -sth * u[:, 0] + cth * u[:, 1]
+        w0, w1 = nx * vbx + ny * vby, tx * vbx + ty * vby
+        Wn, Wt = (nx, ny, rx * ny - ry * nx), (tx, ty, rx * ty - ry * tx)
+        MWn, MWt = mul(Wn), mul(Wt)
+        g00 = sum(a * b for a, b in zip(Wn, MWn))
+        g01 = sum(a * b for a, b in zip(Wn, MWt))
+        g11 = sum(a * b for a, b in zip(Wt, MWt))
+        det = g00 * g11 - g01 * g01
+        a0, a1 = (g11 * w0 - g01 * w1) / det, (g00 * w1 - g01 * w0) / det
+        e0, e1 = -g01 * ndr / det, g00 * ndr / det
+        fp_s, fm_s = (mu * a0 + a1) / (2 * mu), (mu * a0 - a1) / (2 * mu)
+        dccw = e1 - mu * e0
+        fp_c, pd_c = (e1 * a0 - e0 * a1) / dccw, (a1 - mu * a0) / dccw
+        dcw = -e1 - mu * e0
+        fm_w, npd_w = (e0 * a1 - e1 * a0) / dcw, (a1 + mu * a0) / dcw
+        stick = contact & (fp_s > 0) & (fm_s > 0)
+        ccw = contact & ~stick & (fp_c >= 0) & (pd_c >= 0)
+        cw = contact & ~stick & ~ccw & (fm_w >= 0) & (npd_w >= 0)
+        z = torch.zeros_like(a0)
+        fn = torch.where(stick, a0, torch.where(ccw, fp_c, torch.where(cw, fm_w, z)))
+        ft = torch.where(stick, a1, torch.where(ccw, mu * fp_c, torch.where(cw, -mu * fm_w, z)))
+        F = (fn * Wn[0] + ft * Wt[0], fn * Wn[1] + ft * Wt[1], fn * Wn[2] + ft * Wt[2])
+        Vx, Vy, Vw = mul(F)
+        xn = x + dt * torch.stack([cth * Vx - sth * Vy, sth * Vx + cth * Vy, Vw, u[:, 0], u[:, 1]], -1)
+        # penetration fix, as dexpush.model.resolve_penetration
+        cth, sth, px, py = to_body(xn)
+        dist, R, _, _, _, nx, ny, _, _ = frame(px, py)
+        radial = torch.where(stick | ccw | cw, R - dist, torch.clamp(R - dist, min=0.0))
+        depth = radial * -(nx * px + ny * py) / dist
+        mx, my = cth * nx - sth * ny, sth * nx + cth * ny
+        xn = xn.clone()
+        xn[:, 0] += depth * mx
+        xn[:, 1] += depth * my
+        return xn
+
+    def d2(x):
+        return (x[..., 0] - goal[0]) ** 2 + (x[..., 1] - goal[1]) ** 2 + 0.1 * (1 - torch.cos(x[..., 2] - goal[2]))
+
+    def running_cost(x, u, t=None):
+        gap = torch.sqrt((x[:, 3] - x[:, 0]) ** 2 + (x[:, 4] - x[:, 1]) ** 2)
+        return 100 * d2(x) + 1e4 * torch.relu(gap - 0.2)
+
+    def terminal(states, actions):
+        return 5000 * d2(states[..., -1, :]).reshape(-1)
+
+    return dynamics, running_cost, terminal
+
+
+def pytorch_mppi_iteration(K: int, repeats: int) -> float:
+    import torch
+    from pytorch_mppi import MPPI as TorchMPPI
+
+    settings = MPPISettings(num_samples=K)
+    dynamics, running_cost, terminal = torch_problem(Shape.rectangle(), settings)
+    c = settings.v_clip
+    ctrl = TorchMPPI(dynamics, running_cost, 5, torch.eye(2) * settings.noise_sigma**2, num_samples=K,
+                     horizon=settings.horizon, terminal_state_cost=terminal, lambda_=1.0,
+                     u_min=torch.tensor([-c, -c]), u_max=torch.tensor([c, c]), step_dependent_dynamics=True)
+    state = torch.tensor([0.0, 0.0, 0.0, -0.15, 0.0])
+    with torch.no_grad():
+        return median_ms(lambda: ctrl.command(state), repeats)
+
+
+def time_ops(n: int = 25600) -> dict[str, float]:
+    """ns per element of XLA's transcendental ops on this CPU (why dexpush.fastmath exists)."""
+    from dexpush import fastmath
+
+    x = jax.random.uniform(jax.random.PRNGKey(0), (n,), minval=-3, maxval=3)
+    y = x[::-1]
+    ops = {"add": lambda: x + y, "jnp.arctan2": lambda: jnp.arctan2(y, x), "fastmath.atan2": lambda: fastmath.atan2(y, x),
+           "jnp.sin+cos": lambda: jnp.sin(x) + jnp.cos(x), "fastmath.sincos": lambda: sum(fastmath.sincos(x))}
+    out = {}
+    for name, f in ops.items():
+        jf = jax.jit(f)
+        out[name] = round(median_ms(lambda jf=jf: jf().block_until_ready(), 50) * 1e6 / n, 2)
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="fewer repeats and sizes")
+    ap.add_argument("--ops", action="store_true", help="also time single XLA ops")
+    ap.add_argument("--repeats", type=int, default=None)
+    args = ap.parse_args()
+    repeats = args.repeats or (10 if args.quick else 50)
+    sizes = [256, 1024] if args.quick else [256, 1024, 4096, 16384]
+    print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, jax {jax.__version__} "
+          f"({jax.default_backend()}), {repeats} repeats")
+    print("| K | dexpush (ms) | pytorch-mppi (ms) | speed-up |")
+    print("|---|---|---|---|")
+    rows = {}
+    for K in sizes:
+        ours = dexpush_iteration(K, repeats)
+        try:
+            theirs = pytorch_mppi_iteration(K, max(3, repeats // 5))
+        except ImportError:
+            theirs = float("nan")
+        rows[K] = (ours, theirs)
+        print(f"| {K} | {ours:.2f} | {theirs:.2f} | {theirs / ours:.1f}× |", flush=True)
+    batched = dexpush_batched(30, 1024, max(3, repeats // 5))
+    print(f"\n30 problems × 1024 samples, one vmapped call: {batched:.1f} ms ({batched / 30:.2f} ms a problem)")
+    result = {"ms_per_iteration_K1024": round(rows[1024][0], 3),
+              "pytorch_mppi_ms_K1024": round(rows[1024][1], 3),
+              "speedup_vs_pytorch_mppi": round(rows[1024][1] / rows[1024][0], 2),
+              "ms_30_problems_x_1024": round(batched, 2), "target_ms_K1024": TARGET_MS,
+              "meets_target": rows[1024][0] <= TARGET_MS}
+    if args.ops:
+        result["ns_per_element"] = time_ops()
+    print(json.dumps(result))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,134 @@
+"""Closed-loop episodes on a plant, their records, and result files.
+
+:func:`run_episode` is one trial of SPEC §5: a plant, a :class:`PushingController`, the
+task's start and goal, up to N_max control steps at 0.04 s. It returns an
+:class:`Episode` with the trajectory (for plots) and the per-trial record (for tables).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+
+import jax.numpy as jnp
+import numpy as np
+from tqdm import tqdm
+
+from dexpush.controller import ControllerSettings, PushingController
+from dexpush.cost import Scene, collides
+from dexpush.geometry import Shape
+from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
+from dexpush.plants import ModelPlant
+from dexpush.tasks import MAX_STEPS, Task, get_task, initial_conditions, is_success, pose_error
+
+__all__ = ["PARAMS", "SHAPES", "Episode", "EpisodeRecord", "make_shape", "run_episode"]
+
+#: λ_pred of the two parameter scenarios (paper Sec. IV-B)
+PARAMS = {"known": LAMBDA_TRUE, "unknown": (15.0, 0.0, 0.0)}
+SHAPES = ("rect", "tee", "ellipse")
+METHODS = ("mppi",)
+CONTROL_PERIOD = 0.04
+
+
+def make_shape(name: str) -> Shape:
+    """The standard shapes of SPEC §2.1 by name."""
+    makers = {"rect": Shape.rectangle, "tee": Shape.tee, "ellipse": Shape.ellipse}
+    if name not in makers:
+        raise ValueError(f"unknown shape {name!r}; choose one of {', '.join(makers)}")
+    return makers[name]()
+
+
+@dataclass
+class EpisodeRecord:
+    """The per-trial record of SPEC §5 (JSON-friendly)."""
+
+    task: str
+    shape: str
+    params: str
+    method: str
+    seed: int
+    success: bool
+    steps: int                    #: control steps taken (to success, or N_max)
+    time_s: float                 #: simulated time (steps × 0.04 s)
+    object_path_m: float
+    pusher_path_m: float
+    final_error_m: float
+    final_error_deg: float
+    collisions: int               #: control steps that ended in collision with an obstacle
+    contact_switches: int         #: contact on/off transitions
+    planning_ms_median: float
+    planning_ms_max: float
+    params_estimate: list[float] | None = None
+
+
+@dataclass
+class Episode:
+    """A finished episode: its record plus the sampled trajectory."""
+
+    record: EpisodeRecord
+    states: np.ndarray            #: (T+1, 5) true states
+    modes: np.ndarray             #: (T,) contact mode at the start of each control step
+    commands: np.ndarray          #: (T, 2)
+    planning_ms: np.ndarray       #: (T,)
+    goal: np.ndarray
+    obstacles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+
+    def summary(self) -> dict:
+        return asdict(self.record)
+
+
+def _path_length(xy: np.ndarray) -> float:
+    return float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=-1)))
+
+
+def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str = "known",
+                method: str = "mppi", seed: int = 0, max_steps: int = MAX_STEPS,
+                settings: ControllerSettings | None = None, progress: bool = False) -> Episode:
+    """Run one closed-loop trial on the model plant (SPEC §5) and record it."""
+    task = get_task(task)
+    shape_name = shape if isinstance(shape, str) else shape.name
+    shape = make_shape(shape) if isinstance(shape, str) else shape
+    if params not in PARAMS:
+        raise ValueError(f"unknown params {params!r}; choose 'known' or 'unknown'")
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    if max_steps < 1:
+        raise ValueError(f"max_steps must be >= 1, got {max_steps}")
+    pose, pusher = initial_conditions(task, shape, seed)
+    plant = ModelPlant(shape, params=LAMBDA_TRUE)
+    obs = plant.reset(pose, pusher)
+    ctrl = PushingController(shape, task.goal, params=PARAMS[params], obstacles=task.obstacles,
+                             settings=settings, seed=seed)
+    scene = Scene.make(shape, task.goal, task.obstacles)
+    contour = Contour.of(shape)
+
+    states, commands, plan_ms = [obs.state], [], []
+    success = bool(is_success(obs.object_pose, task.goal))
+    bar = tqdm(total=max_steps, desc=f"task {task.key} {shape_name}", unit="step", disable=not progress,
+               leave=False)
+    while not success and len(commands) < max_steps:
+        t0 = time.perf_counter()
+        u = ctrl.command(obs.object_pose, obs.pusher_xy)
+        plan_ms.append((time.perf_counter() - t0) * 1e3)
+        obs = plant.step(u, CONTROL_PERIOD)
+        commands.append(u)
+        states.append(obs.state)
+        success = bool(is_success(obs.object_pose, task.goal))
+        bar.update(1)
+    bar.close()
+
+    X = np.asarray(states)
+    U = np.asarray(commands).reshape(-1, 2)
+    modes = np.asarray(contact_solution(contour, X[:-1], U, LAMBDA_TRUE).mode) if len(U) else np.zeros(0, int)
+    in_contact = modes != MODE_NAMES.index("free")
+    hits = np.asarray(collides(jnp.asarray(X[1:]), scene)) if len(U) else np.zeros(0, bool)
+    pos_err, head_err = pose_error(X[-1, :3], task.goal)
+    ms = np.asarray(plan_ms) if plan_ms else np.zeros(1)
+    record = EpisodeRecord(
+        task=task.key, shape=shape_name, params=params, method=method, seed=int(seed), success=success,
+        steps=len(U), time_s=round(len(U) * CONTROL_PERIOD, 3),
+        object_path_m=round(_path_length(X[:, :2]), 4), pusher_path_m=round(_path_length(X[:, 3:]), 4),
+        final_error_m=round(float(pos_err), 5), final_error_deg=round(float(head_err), 3),
+        collisions=int(np.sum(hits)), contact_switches=int(np.sum(in_contact[1:] != in_contact[:-1])),
+        planning_ms_median=round(float(np.median(ms)), 3), planning_ms_max=round(float(np.max(ms)), 3))
+    return Episode(record, X, modes, U, ms, np.asarray(task.goal), np.asarray(task.obstacles).reshape(-1, 3))

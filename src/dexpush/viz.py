@@ -1,0 +1,138 @@
+"""Figures: episode trajectories (like the paper's Fig. 8), animations, and shape diagrams."""
+
+from __future__ import annotations
+
+import os
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.animation import FuncAnimation, PillowWriter
+from matplotlib.collections import LineCollection
+from matplotlib.patches import Circle, Polygon
+
+from dexpush.files import atomic_path
+from dexpush.geometry import Shape
+from dexpush.model import MODE_NAMES
+
+__all__ = ["animate_episode", "plot_episode", "plot_shapes", "save_figure_atomic"]
+
+MODE_COLORS = {"stick": "#e6a800", "slide_ccw": "#2ca02c", "slide_cw": "#1f77b4", "free": "#d62728"}
+
+
+def save_figure_atomic(fig: plt.Figure, path: str | os.PathLike, **kwargs: object) -> None:
+    """``fig.savefig`` through :func:`dexpush.files.atomic_path`."""
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, **kwargs)
+
+
+def _draw_pose(ax: plt.Axes, shape: Shape, pose: np.ndarray, **kw: object) -> None:
+    for poly in shape.footprint_world(pose):
+        ax.add_patch(Polygon(poly, closed=True, **kw))
+
+
+def _setup_axes(ax: plt.Axes, shape: Shape, states: np.ndarray, goal: np.ndarray,
+                obstacles: np.ndarray) -> None:
+    pts = np.concatenate([states[:, :2], states[:, 3:], goal[None, :2]])
+    pad = shape.bounding_radius + 0.03
+    ax.set_xlim(pts[:, 0].min() - pad, pts[:, 0].max() + pad)
+    ax.set_ylim(pts[:, 1].min() - pad, pts[:, 1].max() + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.grid(alpha=0.3)
+    for cx, cy, r in obstacles:
+        ax.add_patch(Circle((cx, cy), r, color="#d62728", alpha=0.5, label="obstacle"))
+    _draw_pose(ax, shape, goal, fill=False, ec="#d62728", lw=1.5, ls="--", label="goal")
+
+
+def plot_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.ndarray,
+                 obstacles: np.ndarray | None = None, title: str = "", outlines: int = 12,
+                 path: str | os.PathLike | None = None) -> plt.Figure:
+    """Object outlines along the path, its reference path, the pusher path coloured by mode."""
+    states = np.asarray(states)
+    obstacles = np.zeros((0, 3)) if obstacles is None else np.asarray(obstacles).reshape(-1, 3)
+    fig, ax = plt.subplots(figsize=(7, 5.5))
+    _setup_axes(ax, shape, states, np.asarray(goal), obstacles)
+    idx = np.unique(np.linspace(0, len(states) - 1, outlines).astype(int))
+    for j, i in enumerate(idx):
+        _draw_pose(ax, shape, states[i], fill=True, fc="0.6", ec="0.2", alpha=0.12 + 0.25 * j / len(idx), lw=0.8)
+    _draw_pose(ax, shape, states[0], fill=False, ec="#1f77b4", lw=1.5, label="start")
+    ax.plot(states[:, 0], states[:, 1], "k-", lw=1.2, label="object reference")
+    if len(modes):
+        seg = np.stack([states[:-1, 3:], states[1:, 3:]], 1)
+        colors = [MODE_COLORS[MODE_NAMES[m]] for m in modes]
+        ax.add_collection(LineCollection(seg, colors=colors, lw=1.6))
+        for name, c in MODE_COLORS.items():
+            if np.any(np.asarray(modes) == MODE_NAMES.index(name)):
+                ax.plot([], [], color=c, lw=2, label=f"pusher: {name}")
+    ax.plot(*states[-1, 3:], "o", color="c", ms=6, mec="k")
+    ax.legend(loc="best", fontsize=7, framealpha=0.8)
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    if path is not None:
+        save_figure_atomic(fig, path, dpi=130)
+    return fig
+
+
+def animate_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.ndarray,
+                    obstacles: np.ndarray | None, path: str | os.PathLike, max_frames: int = 120,
+                    fps: int = 15, title: str = "") -> None:
+    """A GIF of the episode (subsampled to at most ``max_frames`` frames)."""
+    states = np.asarray(states)
+    obstacles = np.zeros((0, 3)) if obstacles is None else np.asarray(obstacles).reshape(-1, 3)
+    frames = np.unique(np.linspace(0, len(states) - 1, min(max_frames, len(states))).astype(int))
+    fig, ax = plt.subplots(figsize=(5, 4))
+    _setup_axes(ax, shape, states, np.asarray(goal), obstacles)
+    ax.set_title(title, fontsize=8)
+    patches = [Polygon(np.zeros((3, 2)), closed=True, fc="0.6", ec="k") for _ in shape.polygons]
+    for p in patches:
+        ax.add_patch(p)
+    trail, = ax.plot([], [], "k-", lw=1)
+    pusher = Circle((0, 0), shape.pusher_radius, color="c", ec="k", zorder=5)
+    ax.add_patch(pusher)
+    text = ax.text(0.02, 0.96, "", transform=ax.transAxes, fontsize=8, va="top")
+
+    def draw(i: int) -> list:
+        for p, poly in zip(patches, shape.footprint_world(states[i])):
+            p.set_xy(poly)
+        trail.set_data(states[: i + 1, 0], states[: i + 1, 1])
+        pusher.center = tuple(states[i, 3:])
+        mode = MODE_NAMES[modes[min(i, len(modes) - 1)]] if len(modes) else "free"
+        pusher.set_color(MODE_COLORS[mode])
+        text.set_text(f"t = {i * 0.04:5.2f} s   {mode}")
+        return [*patches, trail, pusher, text]
+
+    anim = FuncAnimation(fig, draw, frames=frames, blit=False)
+    try:
+        with atomic_path(path) as tmp:
+            anim.save(tmp, writer=PillowWriter(fps=fps))
+    finally:
+        plt.close(fig)
+
+
+def plot_shapes(shapes: list[Shape], path: str | os.PathLike | None = None, normals: int = 24) -> plt.Figure:
+    """Each shape's footprint, pusher-inflated contour and inward normals n̂ (eq. 1)."""
+    fig, axes = plt.subplots(1, len(shapes), figsize=(4 * len(shapes), 4))
+    for ax, shape in zip(np.atleast_1d(axes), shapes):
+        _draw_pose(ax, shape, np.zeros(3), fc="0.8", ec="k")
+        c = shape.contour_points(720)
+        ax.plot(*np.vstack([c, c[:1]]).T, "b-", lw=1.2, label=f"contour (ρ = {shape.pusher_radius * 1000:.0f} mm)")
+        phi = np.linspace(-np.pi, np.pi, normals, endpoint=False)
+        r, dr = (np.asarray(a, np.float64) for a in shape.contour(phi))
+        n = np.stack([-dr[:, 1], dr[:, 0]], -1) / np.linalg.norm(dr, axis=-1, keepdims=True)
+        ax.quiver(r[:, 0], r[:, 1], n[:, 0], n[:, 1], color="r", scale=25, width=0.006, label="inward normal n̂")
+        ax.plot(0, 0, "k+", ms=10, label="reference {B}")
+        ax.set_aspect("equal")
+        ax.set_title(shape.name)
+        ax.grid(alpha=0.3)
+        lim = shape.bounding_radius + 0.02
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
+    np.atleast_1d(axes)[0].legend(fontsize=7, loc="lower left")
+    fig.tight_layout()
+    if path is not None:
+        save_figure_atomic(fig, path, dpi=130)
+    return fig

@@ -1,0 +1,52 @@
+"""The command line, end to end, in a subprocess (as a user runs it)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+
+def dexpush(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "dexpush.cli", *args], capture_output=True, text=True,
+                          timeout=600)
+
+
+def test_run_writes_files_and_prints_json_last(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    proc = dexpush("run", "--task", "III", "--shape", "tee", "--seed", "2", "--max-steps", "25",
+                   "--samples", "128", "--quiet", "--out", str(out))
+    assert proc.returncode == 1, proc.stderr  # 25 steps cannot reach the goal: exit code 1
+    summary = json.loads(proc.stdout.strip().splitlines()[-1])
+    for key in ("success", "steps", "time_s", "object_path_m", "pusher_path_m", "final_error_m",
+                "final_error_deg", "collisions", "contact_switches", "planning_ms_median"):
+        assert key in summary
+    assert summary["steps"] == 25 and summary["success"] is False and summary["task"] == "III"
+    for name in ("trajectory.png", "animation.gif", "summary.json", "trajectory.npz"):
+        assert (out / name).stat().st_size > 0, name
+    assert json.loads((out / "summary.json").read_text())["seed"] == 2
+    assert not list(out.glob(".*")), "temporary files left behind"
+
+
+def test_demo_succeeds(tmp_path: Path) -> None:
+    proc = dexpush("demo", "--quiet", "--no-animation", "--out", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert summary["success"] is True and summary["final_error_m"] < 0.008
+    assert (tmp_path / "trajectory.png").exists()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["run", "--task", "IV"], "unknown task 'IV'"),
+    (["run", "--shape", "star"], "invalid choice: 'star'"),
+    (["run", "--seed", "-3"], "seed must be >= 0"),
+    (["run", "--max-steps", "0"], "must be a positive integer"),
+])
+def test_bad_arguments_give_one_clear_line(args, message, tmp_path: Path) -> None:
+    proc = dexpush(*args, "--out", str(tmp_path))
+    assert proc.returncode == 2
+    assert message in proc.stderr
+    assert "Traceback" not in proc.stderr

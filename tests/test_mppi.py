@@ -1,0 +1,117 @@
+"""MPPI: cost reduction, clipping, warm-start shift; the controller's contract."""
+
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from dexpush import Shape
+from dexpush.controller import ControllerSettings, PushingController
+from dexpush.mppi import MPPI, MPPISettings, shift_in_time
+
+
+def point_mass_planner(**kw) -> MPPI:
+    """A point that moves with the input, cost = squared distance to the origin."""
+    def dynamics(x, u, dt, params):
+        return x + dt * u
+
+    def cost(x, target):
+        return jnp.sum((x - target) ** 2, -1)
+
+    return MPPI(dynamics, cost, lambda x, t: 10 * cost(x, t), MPPISettings(**kw))
+
+
+def test_mppi_lowers_the_cost_on_a_simple_problem() -> None:
+    planner = point_mass_planner(num_samples=256)
+    x0, target = jnp.array([0.3, -0.2]), jnp.zeros(2)
+    U = planner.initial_sequence()
+    key = jax.random.PRNGKey(0)
+    costs = []
+    for _ in range(15):
+        key, sub = jax.random.split(key)
+        res = planner.optimize(sub, U, x0, None, target)
+        costs.append(float(res.cost_nominal))
+        U = res.sequence
+    assert costs[-1] < 0.5 * costs[0]
+    # the first input heads towards the target at the speed limit, per axis
+    assert U[0, 0] < -0.03 and U[0, 1] > 0.03
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 10**6), scale=st.floats(0.0, 10.0))
+def test_clipping_holds_for_every_output(seed: int, scale: float) -> None:
+    planner = point_mass_planner(num_samples=64)
+    U = scale * jax.random.normal(jax.random.PRNGKey(seed), (25, 2))
+    res = planner.optimize(jax.random.PRNGKey(seed + 1), U, jnp.array([1.0, 1.0]), None, jnp.zeros(2))
+    assert np.all(np.abs(np.asarray(res.sequence)) <= 0.1 / np.sqrt(2) + 1e-7)
+
+
+def test_warm_start_shift_is_exact_in_time_for_a_linear_sequence() -> None:
+    s = MPPISettings()
+    d = s.step_durations()
+    mid = np.cumsum(d) - d / 2
+    U = np.stack([0.01 + 0.02 * mid, -0.03 * mid], -1)
+    shifted = np.asarray(shift_in_time(jnp.asarray(U), jnp.asarray(d), 0.04))
+    expect = np.stack([0.01 + 0.02 * (mid + 0.04), -0.03 * (mid + 0.04)], -1)
+    inside = mid + 0.04 <= mid[-1]
+    np.testing.assert_allclose(shifted[inside], expect[inside], atol=1e-6)
+    np.testing.assert_allclose(shifted[~inside], np.broadcast_to(U[-1], shifted[~inside].shape), atol=1e-6)
+    # a slot shift would be wrong: slots are longer than the control period
+    assert not np.allclose(shifted[5:-1], U[6:], atol=1e-4)
+
+
+def test_step_durations_follow_the_paper() -> None:
+    d = MPPISettings().step_durations()
+    assert d[0] == pytest.approx(0.04)
+    np.testing.assert_allclose(d[1:] / d[:-1], np.exp(2 / 25))
+    assert d.sum() == pytest.approx(3.07, abs=0.01)
+
+
+@pytest.mark.parametrize("bad", [dict(num_samples=0), dict(temperature=0.0), dict(noise_sigma=-1.0),
+                                 dict(refine_fraction=1.5), dict(control_cost=-1.0)])
+def test_bad_settings(bad: dict) -> None:
+    with pytest.raises(ValueError):
+        MPPISettings(**bad)
+
+
+@functools.cache
+def controller() -> PushingController:
+    return PushingController(Shape.rectangle(), goal=(0.3, 0.0, 0.0),
+                             settings=ControllerSettings(mppi=MPPISettings(num_samples=256)))
+
+
+def test_controller_returns_finite_bounded_commands_and_is_reproducible() -> None:
+    ctrl = controller()
+    ctrl.reset(seed=4)
+    a = [ctrl.command([0, 0, 0], [-0.15, 0.0]) for _ in range(3)]
+    ctrl.reset(seed=4)
+    b = [ctrl.command([0, 0, 0], [-0.15, 0.0]) for _ in range(3)]
+    np.testing.assert_array_equal(a, b)
+    for u in a:
+        assert u.shape == (2,) and np.all(np.isfinite(u)) and np.all(np.abs(u) <= 0.1 / np.sqrt(2))
+    assert a[-1][0] > 0.01  # pusher behind the box heads for it
+
+
+@pytest.mark.parametrize("pose, pusher, match", [
+    ([0, 0, np.nan], [-0.15, 0.0], "NaN"),
+    ([0, 0], [-0.15, 0.0], r"shape \(3,\)"),
+    ([0, 0, 0], [np.inf, 0.0], "NaN or infinite"),
+])
+def test_controller_rejects_bad_observations(pose, pusher, match) -> None:
+    with pytest.raises(ValueError, match=match):
+        controller().command(pose, pusher)
+
+
+def test_controller_rejects_bad_construction() -> None:
+    with pytest.raises(ValueError, match="goal"):
+        PushingController(Shape.rectangle(), goal=(0.0, 0.0))
+    with pytest.raises(ValueError, match="β"):
+        PushingController(Shape.rectangle(), goal=(0, 0, 0), params=(0.0, 0.0, 0.0))
+    with pytest.raises(TypeError, match="Shape"):
+        PushingController("rect", goal=(0, 0, 0))
