@@ -27,7 +27,7 @@ import numpy as np
 from dexpush import Shape
 from dexpush.controller import ControllerSettings, PushingController
 from dexpush.model import LAMBDA_TRUE
-from dexpush.mppi import MPPISettings, mppi_iteration
+from dexpush.mppi import MPPISettings
 
 TARGET_MS = 1.5
 
@@ -168,7 +168,7 @@ def torch_problem(shape: Shape, settings: MPPISettings):
 
 def pytorch_mppi_iteration(K: int, repeats: int) -> float:
     import torch
-    from pytorch_mppi import MPPI as TorchMPPI
+    from pytorch_mppi import MPPI as TorchMPPI  # noqa: N811
 
     settings = MPPISettings(num_samples=K)
     dynamics, running_cost, terminal = torch_problem(Shape.rectangle(), settings)
@@ -187,8 +187,8 @@ def time_ops(n: int = 25600) -> dict[str, float]:
 
     x = jax.random.uniform(jax.random.PRNGKey(0), (n,), minval=-3, maxval=3)
     y = x[::-1]
-    ops = {"add": lambda: x + y, "jnp.arctan2": lambda: jnp.arctan2(y, x), "fastmath.atan2": lambda: fastmath.atan2(y, x),
-           "jnp.sin+cos": lambda: jnp.sin(x) + jnp.cos(x), "fastmath.sincos": lambda: sum(fastmath.sincos(x))}
+    ops = {"add": lambda: x + y, "jnp.arctan2": lambda: jnp.arctan2(y, x),
+           "fastmath.atan2": lambda: fastmath.atan2(y, x), "jnp.sin+cos": lambda: jnp.sin(x) + jnp.cos(x), "fastmath.sincos": lambda: sum(fastmath.sincos(x))}
     out = {}
     for name, f in ops.items():
         jf = jax.jit(f)
