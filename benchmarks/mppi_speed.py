@@ -188,7 +188,8 @@ def time_ops(n: int = 25600) -> dict[str, float]:
     x = jax.random.uniform(jax.random.PRNGKey(0), (n,), minval=-3, maxval=3)
     y = x[::-1]
     ops = {"add": lambda: x + y, "jnp.arctan2": lambda: jnp.arctan2(y, x),
-           "fastmath.atan2": lambda: fastmath.atan2(y, x), "jnp.sin+cos": lambda: jnp.sin(x) + jnp.cos(x), "fastmath.sincos": lambda: sum(fastmath.sincos(x))}
+           "fastmath.atan2": lambda: fastmath.atan2(y, x), "jnp.sin+cos": lambda: jnp.sin(x) + jnp.cos(x),
+           "fastmath.sincos": lambda: sum(fastmath.sincos(x))}
     out = {}
     for name, f in ops.items():
         jf = jax.jit(f)
