@@ -136,3 +136,66 @@ def plot_shapes(shapes: list[Shape], path: str | os.PathLike | None = None, norm
     if path is not None:
         save_figure_atomic(fig, path, dpi=130)
     return fig
+
+
+def plot_mode_decisions(per_object: dict, mu: float, path: str | os.PathLike | None = None) -> plt.Figure:
+    """The paper's Fig. 6: mode-decision vectors Γ⁻¹w coloured by the observed mode.
+
+    Vectors are normalised to unit length (only their direction decides the mode). The
+    black lines are the friction-cone edges [1, ±μ_c]; the dashed grey rays are each
+    sample's sliding/free boundary ±Γ⁻¹η, which moves with φ_c.
+    """
+    names = sorted(per_object)
+    fig, axes = plt.subplots(1, len(names), figsize=(5 * len(names), 4.8), squeeze=False)
+    for ax, name in zip(axes[0], names):
+        d = per_object[name]
+        a = d["decision"] / np.linalg.norm(d["decision"], axis=-1, keepdims=True)
+        g = d["boundary"] / np.linalg.norm(d["boundary"], axis=-1, keepdims=True)
+        for gi in g[:: max(1, len(g) // 60)]:
+            ax.plot([-gi[0], gi[0]], [-gi[1], gi[1]], color="0.6", lw=0.5, ls="--", alpha=0.5)
+        for m, mode in enumerate(MODE_NAMES):
+            sel = d["observed"] == m
+            ax.scatter(a[sel, 0], a[sel, 1], s=12, color=MODE_COLORS[mode], label=f"observed {mode} ({sel.sum()})",
+                       alpha=0.8, edgecolors="none")
+        for sgn in (1, -1):
+            v = np.array([1.0, sgn * mu]) / np.hypot(1, mu)
+            ax.plot([0, 1.3 * v[0]], [0, 1.3 * v[1]], "k-", lw=1.5)
+        ax.plot([], [], "k-", label=f"friction cone [1, ±{mu}]")
+        ax.plot([], [], color="0.6", ls="--", label="boundary ±Γ⁻¹η (per sample)")
+        agree = np.mean(d["observed"] == d["predicted"])
+        ax.set_title(f"{name}: β = {d['beta']:.1f} 1/m, mode agreement {agree:.0%}", fontsize=9)
+        ax.set_xlabel("(Γ⁻¹w)₀ / |Γ⁻¹w|  (normal)")
+        ax.set_ylabel("(Γ⁻¹w)₁ / |Γ⁻¹w|  (tangential)")
+        ax.set_aspect("equal")
+        ax.set_xlim(-1.3, 1.3)
+        ax.set_ylim(-1.3, 1.3)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="lower left")
+    fig.tight_layout()
+    if path is not None:
+        save_figure_atomic(fig, path, dpi=130)
+    return fig
+
+
+def plot_confusion(per_object: dict, path: str | os.PathLike | None = None) -> plt.Figure:
+    """Observed (rows) against predicted (columns) contact modes, per object."""
+    names = sorted(per_object)
+    fig, axes = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.8), squeeze=False)
+    for ax, name in zip(axes[0], names):
+        d = per_object[name]
+        cm = np.zeros((4, 4), int)
+        np.add.at(cm, (d["observed"], d["predicted"]), 1)
+        ax.imshow(cm, cmap="Blues")
+        for i in range(4):
+            for j in range(4):
+                ax.text(j, i, str(cm[i, j]), ha="center", va="center", fontsize=9,
+                        color="w" if cm[i, j] > cm.max() / 2 else "k")
+        ax.set_xticks(range(4), MODE_NAMES, rotation=30, fontsize=8)
+        ax.set_yticks(range(4), MODE_NAMES, fontsize=8)
+        ax.set_xlabel("predicted by the C-GVMM")
+        ax.set_ylabel("observed")
+        ax.set_title(name)
+    fig.tight_layout()
+    if path is not None:
+        save_figure_atomic(fig, path, dpi=130)
+    return fig

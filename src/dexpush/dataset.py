@@ -1,0 +1,372 @@
+"""The MIT push dataset (Yu et al., IROS 2016): loading and the C-GVMM validation of Sec. IV-A.
+
+Files are the dataset's raw HDF5 (or JSON twin) pushes, named
+``motion_surface=<surf>_shape=<obj>_a=<acc>_v=<vel>_i=<side>_s=<pos>_t=<angle>.h5``, each
+holding ``object_pose``, ``tip_pose`` and ``ft_wrench`` as (N, 4) arrays ``[t, ...]`` at
+~250 Hz. The data is third-party: dexpush never ships it; commands take the folder.
+
+Preprocessing (:func:`load_push`), per stream: sort by time and drop repeated timestamps;
+unwrap the orientation with period π/2 (the Vicon's symmetry jumps of ±π/2 and ±π, and
+ordinary 2π wraps; no real rotation in 4 ms approaches π/4); then on the common time
+window interpolate to a uniform 250 Hz grid, low-pass with a zero-phase Gaussian kernel
+(σ = 20 ms, −3 dB at ≈ 9 Hz, below the 12.5 Hz Nyquist rate of the output) and take every
+10th sample: 25 Hz, as in the paper.
+
+Validation (:func:`validate`), per 25 Hz sample k with x_k = [q_k, p_k] and the pusher
+velocity u_k = (p_{k+1} − p_k)/Δt:
+
+* the mode-decision vector Γ⁻¹w and boundary Γ⁻¹η from :func:`dexpush.contact_solution`
+  (μ_c = 0.25, p_bf = 0) and the predicted mode;
+* only samples where the pusher moves (≥ ``min_speed_mm_s`` = 5 mm/s) count: pushes
+  begin and end with the pusher at rest, where no mode is defined;
+* the observed mode: *free* if the pusher centre is more than ``separation_mm`` = 3 mm
+  outside the inflated contour at k or k+1 (the robot's tip and the Vicon object poses
+  disagree by up to ~2 mm while in contact, real separations open to 5–30 mm); else *stick*
+  if the contact point slides along the contour slower than ``stick_ratio`` = 10 % of the
+  pusher speed (|∂φr|·|φ̇| from the observed φ_c), else CCW/CW by the sign of φ̇;
+* in observed contact the pusher is put radially onto the contour before the model is
+  evaluated, so the model's own contact test does not trip over the calibration offset;
+* one-step pose prediction: :func:`dexpush.model.integrate` from x_k with u_k over Δt;
+  whole-push prediction: the same chained from the first sample with the recorded pusher
+  motion. β is fitted per object on the one-step errors (golden-section search on log β);
+  the full λ = [β, x_bf, y_bf] by Levenberg–Marquardt on the same residuals.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from dexpush.geometry import Shape
+from dexpush.model import FREE, MODE_NAMES, SLIDE_CCW, SLIDE_CW, STICK, Contour, contact_solution, integrate
+
+__all__ = ["Push", "OBJECTS", "load_push", "load_folder", "validate", "ValidationResult", "PUSHER_RADIUS"]
+
+PUSHER_RADIUS = 0.00475
+RATE_HZ = 25.0
+_RAW_HZ = 250.0
+_NUM = r"-?[0-9]+(?:\.[0-9]+)?"
+_NAME = re.compile(rf"shape=(?P<shape>[a-z0-9]+)_a=(?P<a>{_NUM})_v=(?P<v>{_NUM})_i=(?P<i>{_NUM})"
+                   rf"_s=(?P<s>{_NUM})_t=(?P<t>{_NUM})")
+
+
+def _rect1() -> Shape:
+    return Shape.rectangle(0.090, 0.090, pusher_radius=PUSHER_RADIUS, name="rect1")
+
+
+def _ellip1() -> Shape:
+    return Shape.ellipse(0.0525, 0.0525, pusher_radius=PUSHER_RADIUS, name="ellip1")
+
+
+#: the dataset objects this module knows (IROS 2016, Table III), by their file-name key
+OBJECTS = {"rect1": _rect1, "ellip1": _ellip1}
+
+
+@dataclass
+class Push:
+    """One push resampled to 25 Hz: time (T,), object pose (T, 3), pusher centre (T, 2)."""
+
+    name: str
+    shape: str
+    time: np.ndarray
+    object_pose: np.ndarray
+    pusher_xy: np.ndarray
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def states(self) -> np.ndarray:
+        return np.concatenate([self.object_pose, self.pusher_xy], -1)
+
+
+def _read_streams(path: Path) -> dict[str, np.ndarray]:
+    if path.suffix == ".json":
+        try:
+            raw = json.loads(path.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise ValueError(f"{path.name}: not a readable JSON push file ({exc})") from exc
+        get = raw.get if isinstance(raw, dict) else (lambda k: None)
+    else:
+        import h5py
+
+        try:
+            fh = h5py.File(path, "r")
+        except OSError as exc:
+            raise ValueError(f"{path.name}: not a readable HDF5 file ({exc})") from exc
+        with fh:
+            raw = {k: fh[k][()] for k in fh.keys() if isinstance(fh[k], h5py.Dataset)}
+        get = raw.get
+    out = {}
+    for key in ("object_pose", "tip_pose"):
+        a = get(key)
+        if a is None:
+            raise ValueError(f"{path.name}: no '{key}' stream; is this an MIT push file?")
+        a = np.asarray(a, dtype=np.float64)
+        if a.ndim != 2 or a.shape[1] < 3 or a.shape[0] < 10:
+            raise ValueError(f"{path.name}: '{key}' must be an (N ≥ 10, 4) array [t, x, y, θ], got {a.shape}")
+        out[key] = a
+    return out
+
+
+def _clean(a: np.ndarray) -> np.ndarray:
+    """Sort by time, drop repeated timestamps and non-finite rows."""
+    a = a[np.all(np.isfinite(a[:, :4] if a.shape[1] >= 4 else a), axis=1)]
+    a = a[np.argsort(a[:, 0], kind="stable")]
+    keep = np.concatenate([[True], np.diff(a[:, 0]) > 0])
+    return a[keep]
+
+
+def _smooth_resample(t_raw: np.ndarray, y: np.ndarray, t0: float, t1: float) -> tuple[np.ndarray, np.ndarray]:
+    """Uniform 250 Hz, zero-phase Gaussian low-pass (σ = 20 ms), every 10th sample (25 Hz).
+
+    Times are taken relative to t0 first: Unix timestamps (~1.5e9 s) lose the sub-µs
+    resolution a uniform grid needs.
+    """
+    grid = np.arange(int(np.floor((t1 - t0) * _RAW_HZ)) + 1) / _RAW_HZ
+    yi = np.stack([np.interp(grid, t_raw - t0, y[:, j]) for j in range(y.shape[1])], -1)
+    sigma = 0.020 * _RAW_HZ
+    k = np.arange(-int(4 * sigma), int(4 * sigma) + 1)
+    w = np.exp(-0.5 * (k / sigma) ** 2)
+    w /= w.sum()
+    pad = len(k) // 2
+    padded = np.concatenate([np.repeat(yi[:1], pad, 0), yi, np.repeat(yi[-1:], pad, 0)])
+    ys = np.stack([np.convolve(padded[:, j], w, mode="valid") for j in range(y.shape[1])], -1)
+    step = int(round(_RAW_HZ / RATE_HZ))
+    return grid[::step], ys[::step]
+
+
+def load_push(path: str | Path) -> Push:
+    """Read, clean, synchronise and resample one push file (.h5 or .json) to 25 Hz."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"push file not found: {path}")
+    m = _NAME.search(path.name)
+    if m is None:
+        raise ValueError(f"{path.name}: file name does not follow the dataset's "
+                         "'motion_surface=..._shape=<obj>_a=..._v=..._i=..._s=..._t=...' scheme")
+    shape = m["shape"]
+    if shape not in OBJECTS:
+        raise ValueError(f"{path.name}: unknown object '{shape}'; known: {', '.join(OBJECTS)}")
+    streams = {k: _clean(v) for k, v in _read_streams(path).items()}
+    obj, tip = streams["object_pose"], streams["tip_pose"]
+    obj = obj.copy()
+    obj[:, 3] = np.unwrap(obj[:, 3], period=np.pi / 2)
+    t0, t1 = max(obj[0, 0], tip[0, 0]), min(obj[-1, 0], tip[-1, 0])
+    if t1 - t0 < 4.0 / RATE_HZ:
+        raise ValueError(f"{path.name}: object and pusher streams overlap for only {t1 - t0:.3f} s")
+    t, q = _smooth_resample(obj[:, 0], obj[:, 1:4], t0, t1)
+    _, p = _smooth_resample(tip[:, 0], tip[:, 1:3], t0, t1)
+    meta = {k: float(m[k]) for k in ("a", "v", "i", "s", "t")}
+    return Push(path.name, shape, t, q, p, meta)
+
+
+def load_folder(folder: str | Path, objects: tuple[str, ...] = tuple(OBJECTS)) -> list[Push]:
+    """Every push file (*.h5, *.json) for ``objects`` in ``folder``, sorted by name."""
+    folder = Path(folder)
+    if not folder.exists():
+        raise ValueError(f"data folder not found: {folder}")
+    if not folder.is_dir():
+        raise ValueError(f"not a folder: {folder}")
+    files = sorted(p for p in folder.iterdir() if p.suffix in (".h5", ".json") and p.name.startswith("motion_"))
+    if not files:
+        raise ValueError(f"no push files (motion_*.h5 or motion_*.json) in {folder}")
+    pushes = [load_push(f) for f in files]
+    pushes = [p for p in pushes if p.shape in objects]
+    if not pushes:
+        raise ValueError(f"no pushes of {', '.join(objects)} in {folder}")
+    return pushes
+
+
+# ---------------------------------------------------------------------------- validation
+@dataclass
+class Samples:
+    """Per-sample arrays of one object's pushes, concatenated (numpy)."""
+
+    states: np.ndarray        #: (S, 5) x_k
+    inputs: np.ndarray        #: (S, 2) u_k
+    next_pose: np.ndarray     #: (S, 3) q_{k+1}
+    observed: np.ndarray      #: (S,) observed mode
+    push_index: np.ndarray    #: (S,) which push
+
+
+def _samples(pushes: list[Push], shape: Shape, separation_mm: float, stick_ratio: float,
+             min_speed_mm_s: float) -> Samples:
+    contour = Contour.of(shape)
+    dt = 1.0 / RATE_HZ
+    parts = []
+    for i, p in enumerate(pushes):
+        X = p.states.copy()
+        U = np.diff(p.pusher_xy, axis=0) / dt
+        rel = X[:, 3:] - X[:, :2]
+        c, s = np.cos(X[:, 2]), np.sin(X[:, 2])
+        body = np.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
+        phi = np.unwrap(np.arctan2(body[:, 1], body[:, 0]))
+        R, dR = (np.asarray(a, np.float64) for a in contour.lookup(jnp.asarray(np.angle(np.exp(1j * phi)))))
+        gap = np.linalg.norm(body, axis=-1) - R
+        contact = gap <= separation_mm / 1000
+        # observed contact: put the pusher on the contour (removes the tip/Vicon calibration offset)
+        on = (R / np.linalg.norm(body, axis=-1))[:, None] * rel
+        X[contact, 3:] = X[contact, :2] + on[contact]
+        slide = np.hypot(R, dR)[:-1] * np.diff(phi) / dt        # contact-point speed along the contour
+        speed = np.linalg.norm(U, axis=-1)
+        obs = np.where(~(contact[:-1] & contact[1:]), FREE,
+                       np.where(np.abs(slide) < stick_ratio * speed, STICK,
+                                np.where(slide > 0, SLIDE_CCW, SLIDE_CW)))
+        moving = speed * 1000 >= min_speed_mm_s
+        parts.append((X[:-1][moving], U[moving], p.object_pose[1:][moving], obs[moving],
+                      np.full(int(moving.sum()), i)))
+    return Samples(*(np.concatenate([pp[j] for pp in parts]) for j in range(5)))
+
+
+@jax.jit
+def _one_step(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, lam: jnp.ndarray, mu: jnp.ndarray) -> jnp.ndarray:
+    return integrate(contour, x, u, 1.0 / RATE_HZ, lam, mu, 10)
+
+
+def _pose_errors(pred: np.ndarray, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    pos = np.linalg.norm(pred[..., :2] - obs[..., :2], axis=-1)
+    head = np.abs(np.angle(np.exp(1j * (pred[..., 2] - obs[..., 2]))))
+    return pos, head
+
+
+def _residuals(contour: Contour, smp: Samples, lam: np.ndarray, mu: float) -> np.ndarray:
+    """One-step residuals [Δx, Δy, c·Δθ] (m), c = 0.05 m/rad (a 5-cm lever arm)."""
+    pred = np.asarray(_one_step(contour, jnp.asarray(smp.states, jnp.float32), jnp.asarray(smp.inputs, jnp.float32),
+                                jnp.asarray(lam, jnp.float32), jnp.float32(mu)), np.float64)[:, :3]
+    d = pred - smp.next_pose
+    d[:, 2] = 0.05 * np.angle(np.exp(1j * d[:, 2]))
+    return d.reshape(-1)
+
+
+def fit_beta(contour: Contour, smp: Samples, mu: float, lo: float = 2.0, hi: float = 400.0) -> float:
+    """β minimising the one-step residuals with p_bf = 0 (golden-section search on log β)."""
+    def f(logb: float) -> float:
+        return float(np.sum(_residuals(contour, smp, np.array([np.exp(logb), 0.0, 0.0]), mu) ** 2))
+
+    a, b = np.log(lo), np.log(hi)
+    grid = np.linspace(a, b, 17)  # coarse bracket first: the objective need not be unimodal
+    vals = [f(g) for g in grid]
+    j = int(np.argmin(vals))
+    a, b = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
+    g = (np.sqrt(5) - 1) / 2
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = f(c), f(d)
+    for _ in range(30):
+        if fc < fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = f(d)
+    return float(np.exp(0.5 * (a + b)))
+
+
+def fit_lambda(contour: Contour, smp: Samples, mu: float, beta0: float, iters: int = 15) -> np.ndarray:
+    """λ = [β, x_bf, y_bf] by Levenberg–Marquardt on the one-step residuals (finite-difference J)."""
+    lam = np.array([beta0, 0.0, 0.0])
+    scale = np.array([beta0 * 0.02, 1e-3, 1e-3])
+    r = _residuals(contour, smp, lam, mu)
+    damping = 1e-2
+    for _ in range(iters):
+        J = np.stack([(_residuals(contour, smp, lam + scale * e, mu) - r) / scale[i]
+                      for i, e in enumerate(np.eye(3))], -1)
+        A, g = J.T @ J, J.T @ r
+        step = -np.linalg.solve(A + damping * np.diag(np.diag(A) + 1e-12), g)
+        cand = lam + step
+        cand[0] = max(cand[0], 1.0)
+        cand[1:] = np.clip(cand[1:], -0.05, 0.05)
+        rc = _residuals(contour, smp, cand, mu)
+        if rc @ rc < r @ r:
+            lam, r, damping = cand, rc, damping * 0.3
+        else:
+            damping *= 10
+    return lam
+
+
+def whole_push_errors(contour: Contour, pushes: list[Push], lam: np.ndarray, mu: float) -> tuple[float, float]:
+    """Mean final-pose error (mm, deg) of open-loop replays from each push's first sample."""
+    pos, head = [], []
+    for p in pushes:
+        x0 = p.states[0].copy()
+        rel = x0[3:] - x0[:2]
+        c, s = np.cos(x0[2]), np.sin(x0[2])
+        phi = np.arctan2(-s * rel[0] + c * rel[1], c * rel[0] + s * rel[1])
+        R, _ = contour.lookup(jnp.asarray(phi, jnp.float32))
+        x0[3:] = x0[:2] + float(R) * rel / np.linalg.norm(rel)  # pushes start in contact (dataset README)
+        x = jnp.asarray(x0, jnp.float32)
+        U = np.diff(p.pusher_xy, axis=0) * RATE_HZ
+        for u in U:
+            x = _one_step(contour, x, jnp.asarray(u, jnp.float32), jnp.asarray(lam, jnp.float32), jnp.float32(mu))
+        e_pos, e_head = _pose_errors(np.asarray(x[:3], np.float64), p.object_pose[-1])
+        pos.append(e_pos * 1000)
+        head.append(np.degrees(e_head))
+    return float(np.mean(pos)), float(np.mean(head))
+
+
+@dataclass
+class ValidationResult:
+    """Per-object numbers and the per-sample arrays behind the figures."""
+
+    summary: dict
+    per_object: dict = field(default_factory=dict)   #: name -> dict of arrays for plotting
+
+
+def validate(pushes: list[Push], mu: float = 0.25, separation_mm: float = 3.0, stick_ratio: float = 0.1,
+             min_speed_mm_s: float = 5.0, fit_full: bool = True) -> ValidationResult:
+    """Mode agreement, confusion matrix and prediction errors per object (SPEC §6)."""
+    if not pushes:
+        raise ValueError("no pushes to validate")
+    summary: dict = {"pushes": len(pushes), "samples": 0, "mu_c": mu, "objects": {}}
+    per_object = {}
+    agree_total = 0
+    for obj in sorted({p.shape for p in pushes}):
+        ps = [p for p in pushes if p.shape == obj]
+        shape = OBJECTS[obj]()
+        contour = Contour.of(shape)
+        smp = _samples(ps, shape, separation_mm, stick_ratio, min_speed_mm_s)
+        beta = fit_beta(contour, smp, mu)
+        lam_beta = np.array([beta, 0.0, 0.0])
+        sol = contact_solution(shape, smp.states, smp.inputs, lam_beta, mu=mu)
+        predicted = np.asarray(sol.mode)
+        confusion = np.zeros((4, 4), int)
+        np.add.at(confusion, (smp.observed, predicted), 1)
+        agree = int(np.trace(confusion))
+        agree_total += agree
+        r = _residuals(contour, smp, lam_beta, mu).reshape(-1, 3)
+        entry = {
+            "pushes": len(ps), "samples": len(smp.observed), "beta_fit": round(beta, 3),
+            "mode_agreement": round(agree / len(smp.observed), 4),
+            "confusion_observed_by_predicted": confusion.tolist(), "modes": list(MODE_NAMES),
+            "observed_counts": {MODE_NAMES[m]: int(np.sum(smp.observed == m)) for m in range(4)},
+            "one_step_error_mm": round(float(np.mean(np.hypot(r[:, 0], r[:, 1]))) * 1000, 3),
+            "one_step_error_deg": round(float(np.degrees(np.mean(np.abs(r[:, 2]) / 0.05))), 3),
+        }
+        wp = whole_push_errors(contour, ps, lam_beta, mu)
+        entry["whole_push_error_mm"], entry["whole_push_error_deg"] = round(wp[0], 2), round(wp[1], 2)
+        zero = np.array([25.0, 0.0, 0.0])  # reference point: the paper's numerical λ_true β with p_bf = 0
+        wz = whole_push_errors(contour, ps, zero, mu)
+        entry["whole_push_error_mm_beta25"], entry["whole_push_error_deg_beta25"] = round(wz[0], 2), round(wz[1], 2)
+        if fit_full:
+            lam = fit_lambda(contour, smp, mu, beta)
+            rf = _residuals(contour, smp, lam, mu).reshape(-1, 3)
+            wf = whole_push_errors(contour, ps, lam, mu)
+            entry["lambda_fit"] = [round(float(v), 5) for v in lam]
+            entry["one_step_error_mm_full_fit"] = round(float(np.mean(np.hypot(rf[:, 0], rf[:, 1]))) * 1000, 3)
+            entry["one_step_error_deg_full_fit"] = round(float(np.degrees(np.mean(np.abs(rf[:, 2]) / 0.05))), 3)
+            entry["whole_push_error_mm_full_fit"], entry["whole_push_error_deg_full_fit"] = (
+                round(wf[0], 2), round(wf[1], 2))
+        summary["objects"][obj] = entry
+        summary["samples"] += len(smp.observed)
+        per_object[obj] = {"decision": np.asarray(sol.decision, np.float64), "boundary": np.asarray(sol.boundary),
+                           "observed": smp.observed, "predicted": predicted, "beta": beta}
+    summary["mode_agreement"] = round(agree_total / summary["samples"], 4)
+    for key in ("one_step_error_mm", "one_step_error_deg", "whole_push_error_mm", "whole_push_error_deg"):
+        summary[key] = round(float(np.mean([e[key] for e in summary["objects"].values()])), 3)
+    return ValidationResult(summary, per_object)
