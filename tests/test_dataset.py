@@ -33,7 +33,7 @@ def synthetic_push(folder: Path, angle: float, offset: float, seed: int, speed: 
     plant.reset(pose, pusher)
     dt = 0.004
     still = 25
-    n = still + int(round(0.05 / speed / dt)) + still
+    n = still + round(0.05 / speed / dt) + still
     t0 = 1.46e9
     obj, tip = [], []
     for k in range(n):

@@ -46,7 +46,7 @@ import numpy as np
 from dexpush.geometry import Shape
 from dexpush.model import FREE, MODE_NAMES, SLIDE_CCW, SLIDE_CW, STICK, Contour, contact_solution, integrate
 
-__all__ = ["Push", "OBJECTS", "load_push", "load_folder", "validate", "ValidationResult", "PUSHER_RADIUS"]
+__all__ = ["OBJECTS", "PUSHER_RADIUS", "Push", "ValidationResult", "load_folder", "load_push", "validate"]
 
 PUSHER_RADIUS = 0.00475
 RATE_HZ = 25.0
@@ -136,7 +136,7 @@ def _smooth_resample(t_raw: np.ndarray, y: np.ndarray, t0: float, t1: float) -> 
     pad = len(k) // 2
     padded = np.concatenate([np.repeat(yi[:1], pad, 0), yi, np.repeat(yi[-1:], pad, 0)])
     ys = np.stack([np.convolve(padded[:, j], w, mode="valid") for j in range(y.shape[1])], -1)
-    step = int(round(_RAW_HZ / RATE_HZ))
+    step = round(_RAW_HZ / RATE_HZ)
     return grid[::step], ys[::step]
 
 
