@@ -8,7 +8,7 @@ task's start and goal, up to N_max control steps at 0.04 s. It returns an
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import jax.numpy as jnp
 import numpy as np
@@ -26,7 +26,7 @@ __all__ = ["PARAMS", "SHAPES", "Episode", "EpisodeRecord", "make_shape", "run_ep
 #: λ_pred of the two parameter scenarios (paper Sec. IV-B)
 PARAMS = {"known": LAMBDA_TRUE, "unknown": (15.0, 0.0, 0.0)}
 SHAPES = ("rect", "tee", "ellipse")
-METHODS = ("mppi",)
+METHODS = ("mppi", "mppi-ukf")
 CONTROL_PERIOD = 0.04
 
 
@@ -70,6 +70,7 @@ class Episode:
     modes: np.ndarray             #: (T,) contact mode at the start of each control step
     commands: np.ndarray          #: (T, 2)
     planning_ms: np.ndarray       #: (T,)
+    params: np.ndarray            #: (T, 3) λ_pred the controller planned with at each step
     goal: np.ndarray
     obstacles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
@@ -97,12 +98,14 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
     pose, pusher = initial_conditions(task, shape, seed)
     plant = ModelPlant(shape, params=LAMBDA_TRUE)
     obs = plant.reset(pose, pusher)
+    settings = settings or ControllerSettings()
+    settings = replace(settings, estimate_params=(method == "mppi-ukf"))
     ctrl = PushingController(shape, task.goal, params=PARAMS[params], obstacles=task.obstacles,
                              settings=settings, seed=seed)
     scene = Scene.make(shape, task.goal, task.obstacles)
     contour = Contour.of(shape)
 
-    states, commands, plan_ms = [obs.state], [], []
+    states, commands, plan_ms, lam = [obs.state], [], [], []
     success = bool(is_success(obs.object_pose, task.goal))
     bar = tqdm(total=max_steps, desc=f"task {task.key} {shape_name}", unit="step", disable=not progress,
                leave=False)
@@ -110,6 +113,7 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
         t0 = time.perf_counter()
         u = ctrl.command(obs.object_pose, obs.pusher_xy)
         plan_ms.append((time.perf_counter() - t0) * 1e3)
+        lam.append(ctrl.params)
         obs = plant.step(u, CONTROL_PERIOD)
         commands.append(u)
         states.append(obs.state)
@@ -130,5 +134,7 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
         object_path_m=round(_path_length(X[:, :2]), 4), pusher_path_m=round(_path_length(X[:, 3:]), 4),
         final_error_m=round(float(pos_err), 5), final_error_deg=round(float(head_err), 3),
         collisions=int(np.sum(hits)), contact_switches=int(np.sum(in_contact[1:] != in_contact[:-1])),
-        planning_ms_median=round(float(np.median(ms)), 3), planning_ms_max=round(float(np.max(ms)), 3))
-    return Episode(record, X, modes, U, ms, np.asarray(task.goal), np.asarray(task.obstacles).reshape(-1, 3))
+        planning_ms_median=round(float(np.median(ms)), 3), planning_ms_max=round(float(np.max(ms)), 3),
+        params_estimate=[round(float(v), 5) for v in ctrl.params] if method == "mppi-ukf" else None)
+    return Episode(record, X, modes, U, ms, np.asarray(lam).reshape(-1, 3), np.asarray(task.goal),
+                   np.asarray(task.obstacles).reshape(-1, 3))

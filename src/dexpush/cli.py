@@ -25,7 +25,8 @@ def _episode_files(episode, shape, out: Path, animation: bool) -> dict[str, str]
     import numpy as np
 
     from dexpush.files import atomic_path, write_json_atomic
-    from dexpush.viz import animate_episode, plot_episode
+    from dexpush.model import LAMBDA_TRUE
+    from dexpush.viz import animate_episode, plot_episode, plot_params
 
     rec = episode.record
     title = (f"Task {rec.task} · {rec.shape} · {rec.params} params · {rec.method} · seed {rec.seed}: "
@@ -34,6 +35,9 @@ def _episode_files(episode, shape, out: Path, animation: bool) -> dict[str, str]
     fig = plot_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles, title=title,
                        path=files["trajectory"])
     plt.close(fig)
+    if rec.method == "mppi-ukf":
+        files["params"] = str(out / "params.png")
+        plt.close(plot_params(episode.params, LAMBDA_TRUE, files["params"], title=title))
     if animation:
         files["animation"] = str(out / "animation.gif")
         animate_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles,
@@ -41,7 +45,8 @@ def _episode_files(episode, shape, out: Path, animation: bool) -> dict[str, str]
     files["trajectory_data"] = str(out / "trajectory.npz")
     with atomic_path(files["trajectory_data"]) as tmp, open(tmp, "wb") as fh:
         np.savez_compressed(fh, states=episode.states, modes=episode.modes, commands=episode.commands,
-                            planning_ms=episode.planning_ms, goal=episode.goal, obstacles=episode.obstacles)
+                            planning_ms=episode.planning_ms, params=episode.params, goal=episode.goal,
+                            obstacles=episode.obstacles)
     write_json_atomic(files["summary"], episode.summary())
     return files
 
@@ -126,7 +131,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--shape", default="rect", choices=["rect", "tee", "ellipse"])
     run.add_argument("--params", default="known", choices=["known", "unknown"],
                      help="λ_pred = λ_true (known) or [15, 0, 0] (unknown)")
-    run.add_argument("--method", default="mppi", choices=["mppi"])
+    run.add_argument("--method", default="mppi", choices=["mppi", "mppi-ukf"],
+                     help="MPPI with fixed λ_pred, or with the UKF estimating λ online")
     run.add_argument("--seed", type=_seed, default=0)
     run.add_argument("--plant", default="model", choices=["model"], help="the world (default model)")
     episode_args(run, "out/run")

@@ -8,7 +8,8 @@
 Each ``command`` runs one MPPI iteration (warm-started from the previous one, shifted by
 the control period) over the C-GVMM with the controller's current parameter estimate
 λ_pred, and returns the first input of the new nominal sequence. The result is always
-finite and inside the per-axis limit ±v_max/√2.
+finite and inside the per-axis limit ±v_max/√2. With ``estimate_params`` the observation
+first goes to a :class:`dexpush.ukf.WindowEstimator`, whose estimate becomes λ_pred.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from dexpush.cost import CostWeights, Scene, running_cost, terminal_cost
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, Contour, check_params, step
 from dexpush.mppi import MPPI, MPPIResult, MPPISettings
+from dexpush.ukf import UKFSettings, WindowEstimator
 
 __all__ = ["ControllerSettings", "PushingController"]
 
@@ -34,6 +36,8 @@ class ControllerSettings:
     mppi: MPPISettings = field(default_factory=MPPISettings)
     weights: CostWeights = field(default_factory=CostWeights)
     mu: float = 0.3               #: pusher–object friction μ_c assumed by the model
+    estimate_params: bool = False #: run the UKF (paper Fig. 5) and plan with its estimate
+    ukf: UKFSettings = field(default_factory=UKFSettings)
 
 
 def _finite(name: str, value: object, n: int) -> np.ndarray:
@@ -77,6 +81,7 @@ class PushingController:
                             lambda x, scene: terminal_cost(x, scene, weights),
                             self.settings.mppi)
         self._seed = int(seed)
+        self._initial_params = params
         self.set_params(params)
         self.reset()
 
@@ -108,11 +113,19 @@ class PushingController:
         self._key = jax.random.PRNGKey(self._seed)
         self._U = self.planner.initial_sequence()
         self.last: MPPIResult | None = None
+        self.estimator: WindowEstimator | None = None
+        if self.settings.estimate_params:
+            self.set_params(self._initial_params)
+            self.estimator = WindowEstimator(self.contour, self._initial_params, self.settings.ukf,
+                                             mu=self.settings.mu, dt=self.settings.mppi.control_period)
 
     def command(self, object_pose: object, pusher_xy: object) -> np.ndarray:
         """Pusher velocity (v_x, v_y) in m/s for the observed object pose and pusher position."""
         q = _finite("object_pose", object_pose, 3)
         p = _finite("pusher_xy", pusher_xy, 2)
+        if self.estimator is not None:
+            self.estimator.observe(q, p)
+            self._params = jnp.asarray(self.estimator.params, jnp.float32)
         x0 = tuple(jnp.float32(v) for v in np.concatenate([q, p]))  # rollouts carry a tuple
         self._key, sub = jax.random.split(self._key)
         result = self.planner.optimize(sub, self._U, x0, self._params, self.scene)

@@ -199,3 +199,25 @@ def plot_confusion(per_object: dict, path: str | os.PathLike | None = None) -> p
     if path is not None:
         save_figure_atomic(fig, path, dpi=130)
     return fig
+
+
+def plot_params(params: np.ndarray, truth: object, path: str | os.PathLike | None = None,
+                dt: float = 0.04, title: str = "") -> plt.Figure:
+    """β, x_bf and y_bf the controller planned with, against time, with λ_true."""
+    params = np.asarray(params)
+    t = np.arange(len(params)) * dt
+    fig, axes = plt.subplots(3, 1, figsize=(6, 5), sharex=True)
+    labels = ("β (1/m)", "x_bf (mm)", "y_bf (mm)")
+    scale = (1.0, 1000.0, 1000.0)
+    for i, ax in enumerate(axes):
+        ax.plot(t, params[:, i] * scale[i], "b-", lw=1.2, label="estimate")
+        ax.axhline(np.asarray(truth)[i] * scale[i], color="k", ls="--", lw=1, label="λ_true")
+        ax.set_ylabel(labels[i])
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    axes[0].set_title(title, fontsize=9)
+    axes[-1].set_xlabel("time (s)")
+    fig.tight_layout()
+    if path is not None:
+        save_figure_atomic(fig, path, dpi=130)
+    return fig
