@@ -65,3 +65,12 @@ def test_short_closed_loop_episode_reaches_a_nearby_goal() -> None:
     assert ep.record.success, ep.record
     assert ep.record.steps < 300 and ep.record.object_path_m > 0.05
     assert ep.states.shape == (ep.record.steps + 1, 5)
+
+
+def test_effective_free_roaming_radius() -> None:
+    from dexpush.cost import CostWeights
+
+    assert float(Scene.make(Shape.rectangle(), (0, 0, 0)).r_s) == pytest.approx(0.2)
+    tee = Shape.tee()
+    assert float(Scene.make(tee, (0, 0, 0)).r_s) == pytest.approx(tee.bounding_radius + 0.05)
+    assert float(Scene.make(tee, (0, 0, 0), weights=CostWeights(r_s_clearance=None)).r_s) == pytest.approx(0.2)

@@ -15,7 +15,7 @@ import numpy as np
 from tqdm import tqdm
 
 from dexpush.controller import ControllerSettings, PushingController
-from dexpush.cost import Scene, collides
+from dexpush.cost import collides
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
 from dexpush.plants import ModelPlant
@@ -102,7 +102,7 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
     settings = replace(settings, estimate_params=(method == "mppi-ukf"))
     ctrl = PushingController(shape, task.goal, params=PARAMS[params], obstacles=task.obstacles,
                              settings=settings, seed=seed)
-    scene = Scene.make(shape, task.goal, task.obstacles)
+    scene = ctrl.scene
     contour = Contour.of(shape)
 
     states, commands, plan_ms, lam = [obs.state], [], [], []

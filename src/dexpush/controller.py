@@ -68,7 +68,7 @@ class PushingController:
             raise TypeError(f"shape must be a dexpush.Shape, got {type(shape).__name__}")
         self.shape = shape
         self.settings = settings or ControllerSettings()
-        self.scene = Scene.make(shape, goal, obstacles)
+        self.scene = Scene.make(shape, goal, obstacles, self.settings.weights)
         self.contour = Contour.of(shape)
         mu, weights = self.settings.mu, self.settings.weights
         contour = self.contour

@@ -49,7 +49,7 @@ import numpy as np
 
 from dexpush.model import Contour, contact_gap, integrate
 
-__all__ = ["UKFSettings", "UKFState", "ukf_update", "WindowEstimator", "sigma_points"]
+__all__ = ["UKFSettings", "UKFState", "WindowEstimator", "sigma_points", "ukf_update"]
 
 
 @dataclass(frozen=True)
