@@ -181,19 +181,20 @@ def pytorch_mppi_iteration(K: int, repeats: int) -> float:
         return median_ms(lambda: ctrl.command(state), repeats)
 
 
-def time_ops(n: int = 25600) -> dict[str, float]:
+def time_ops(n: int = 1 << 20) -> dict[str, float]:
     """ns per element of XLA's transcendental ops on this CPU (why dexpush.fastmath exists)."""
     from dexpush import fastmath
 
     x = jax.random.uniform(jax.random.PRNGKey(0), (n,), minval=-3, maxval=3)
     y = x[::-1]
-    ops = {"add": lambda: x + y, "jnp.arctan2": lambda: jnp.arctan2(y, x),
-           "fastmath.atan2": lambda: fastmath.atan2(y, x), "jnp.sin+cos": lambda: jnp.sin(x) + jnp.cos(x),
-           "fastmath.sincos": lambda: sum(fastmath.sincos(x))}
+    # inputs are arguments, not closed-over constants (XLA would fold those at compile time)
+    ops = {"add": lambda a, b: a + b, "jnp.arctan2": jnp.arctan2, "fastmath.atan2": fastmath.atan2,
+           "jnp.sin+cos": lambda a, b: jnp.sin(a) + jnp.cos(a),
+           "fastmath.sincos": lambda a, b: sum(fastmath.sincos(a))}
     out = {}
     for name, f in ops.items():
         jf = jax.jit(f)
-        out[name] = round(median_ms(lambda jf=jf: jf().block_until_ready(), 50) * 1e6 / n, 2)
+        out[name] = round(median_ms(lambda jf=jf: jf(y, x).block_until_ready(), 50) * 1e6 / n, 2)
     return out
 
 

@@ -92,41 +92,42 @@ def decoupled_distance_sq(q: jnp.ndarray, goal: jnp.ndarray, c: float) -> jnp.nd
     return _distance_sq(q[..., 0], q[..., 1], q[..., 2], goal, c)
 
 
-def _segment_distance(p: jnp.ndarray, a: jnp.ndarray, b: jnp.ndarray) -> jnp.ndarray:
-    """Distance from points p (..., 2) to segments a→b (E, 2): (..., E)."""
-    ab = b - a
-    ap = p[..., None, :] - a
-    t = jnp.clip(jnp.sum(ap * ab, -1) / jnp.sum(ab * ab, -1), 0.0, 1.0)
-    d = ap - t[..., None] * ab
-    return jnp.sqrt(jnp.sum(d * d, -1))
-
-
 def collides(x: State, scene: Scene) -> jnp.ndarray:
     """isCollision (9e): object footprint or pusher disc overlaps an obstacle disc; (...,) bool.
 
-    The footprint test is exact for an obstacle that crosses the outline (distance from
-    the disc centre to the footprint edges); a disc wholly inside the footprint is caught
-    by a point-in-polygon test of its centre (crossing-number over all edges, valid for
-    the union shapes because their pieces only touch or overlap inside).
+    The footprint test is exact for an obstacle that crosses the outline (squared distance
+    from the disc centre to the footprint edges); a disc wholly inside the footprint is
+    caught by a crossing-number test of its centre, written without divisions (valid for
+    the union shapes because their pieces only touch or overlap inside). It runs in every
+    rollout step, so it avoids square roots and reductions (measured at K = 1024: Task III
+    iterations went from 15–24 ms with a vectorised (K, M, E) version to the same time as
+    the obstacle-free Task I).
     """
     xb, yb, th, xc, yc = components(x)
+    hit = jnp.zeros(jnp.shape(xb), dtype=bool)
     if scene.obstacles.shape[0] == 0:
-        return jnp.zeros(jnp.shape(xb), dtype=bool)
-    o = scene.obstacles
-    dx = o[:, 0] - xb[..., None]                                    # (..., M)
-    dy = o[:, 1] - yb[..., None]
-    s, c = fastmath.sincos(th[..., None])
-    ob = jnp.stack([c * dx + s * dy, -s * dx + c * dy], -1)          # centres in {B}: (..., M, 2)
-    edge_d = jnp.min(_segment_distance(ob, scene.edge_a, scene.edge_b), -1)
+        return hit
+    s, c = fastmath.sincos(th)
     a, b = scene.edge_a, scene.edge_b
-    py = ob[..., 1, None]
-    crosses = (a[:, 1] > py) != (b[:, 1] > py)
-    xi = a[:, 0] + (py - a[:, 1]) * (b[:, 0] - a[:, 0]) / jnp.where(b[:, 1] == a[:, 1], 1.0, b[:, 1] - a[:, 1])
-    inside = jnp.sum(crosses & (ob[..., 0, None] < xi), -1) % 2 == 1
-    obj_hit = (edge_d < o[:, 2]) | inside
-    pdx, pdy = xc[..., None] - o[:, 0], yc[..., None] - o[:, 1]
-    pusher_hit = pdx * pdx + pdy * pdy < (o[:, 2] + scene.pusher_radius) ** 2
-    return jnp.any(obj_hit | pusher_hit, -1)
+    # obstacles and edges are few and static: unrolled, so XLA fuses it all (no reductions)
+    for m in range(scene.obstacles.shape[0]):
+        ox, oy, r = scene.obstacles[m, 0], scene.obstacles[m, 1], scene.obstacles[m, 2]
+        dx, dy = ox - xb, oy - yb
+        px, py = c * dx + s * dy, -s * dx + c * dy                   # centre in {B}
+        d2 = jnp.full(jnp.shape(xb), jnp.inf, dtype=px.dtype)
+        inside = jnp.zeros(jnp.shape(xb), dtype=bool)
+        for e in range(a.shape[0]):
+            ax, ay, ex, ey = a[e, 0], a[e, 1], b[e, 0] - a[e, 0], b[e, 1] - a[e, 1]
+            apx, apy = px - ax, py - ay
+            t = jnp.clip((apx * ex + apy * ey) / (ex * ex + ey * ey), 0.0, 1.0)
+            qx, qy = apx - t * ex, apy - t * ey
+            d2 = jnp.minimum(d2, qx * qx + qy * qy)
+            crosses = (ay > py) != (ay + ey > py)
+            left = (apx * ey - apy * ex) * jnp.sign(ey) < 0           # x < x_intersection, no division
+            inside = inside ^ (crosses & left)
+        pdx, pdy = xc - ox, yc - oy
+        hit = hit | (d2 < r * r) | inside | (pdx * pdx + pdy * pdy < (r + scene.pusher_radius) ** 2)
+    return hit
 
 
 def running_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
