@@ -22,7 +22,7 @@ import numpy as np
 
 from dexpush.cost import CostWeights, Scene, running_cost, terminal_cost
 from dexpush.geometry import Shape
-from dexpush.model import LAMBDA_TRUE, Contour, check_params, step
+from dexpush.model import LAMBDA_TRUE, Contour, check_params, checked_vector, step
 from dexpush.mppi import MPPI, MPPIResult, MPPISettings
 from dexpush.ukf import UKFSettings, WindowEstimator
 
@@ -38,15 +38,6 @@ class ControllerSettings:
     mu: float = 0.3               #: pusher–object friction μ_c assumed by the model
     estimate_params: bool = False #: run the UKF (paper Fig. 5) and plan with its estimate
     ukf: UKFSettings = field(default_factory=UKFSettings)
-
-
-def _finite(name: str, value: object, n: int) -> np.ndarray:
-    a = np.asarray(value, dtype=np.float64)
-    if a.shape != (n,):
-        raise ValueError(f"{name} must have shape ({n},), got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains NaN or infinite values: {a}")
-    return a
 
 
 class PushingController:
@@ -96,7 +87,7 @@ class PushingController:
 
     def set_params(self, params: object) -> None:
         """Replace λ_pred (e.g. with an online estimate); takes effect at the next command."""
-        p = _finite("params", params, 3)
+        p = checked_vector("params", params, 3)
         check_params(p)
         self._params = jnp.asarray(p, jnp.float32)
 
@@ -105,9 +96,9 @@ class PushingController:
         """Forget the warm start (and optionally reseed). Poses are accepted for symmetry
         with :meth:`command` and validated, but the first command re-plans from scratch."""
         if object_pose is not None:
-            _finite("object_pose", object_pose, 3)
+            checked_vector("object_pose", object_pose, 3)
         if pusher_xy is not None:
-            _finite("pusher_xy", pusher_xy, 2)
+            checked_vector("pusher_xy", pusher_xy, 2)
         if seed is not None:
             self._seed = int(seed)
         self._key = jax.random.PRNGKey(self._seed)
@@ -121,8 +112,8 @@ class PushingController:
 
     def command(self, object_pose: object, pusher_xy: object) -> np.ndarray:
         """Pusher velocity (v_x, v_y) in m/s for the observed object pose and pusher position."""
-        q = _finite("object_pose", object_pose, 3)
-        p = _finite("pusher_xy", pusher_xy, 2)
+        q = checked_vector("object_pose", object_pose, 3)
+        p = checked_vector("pusher_xy", pusher_xy, 2)
         if self.estimator is not None:
             self.estimator.observe(q, p)
             self._params = jnp.asarray(self.estimator.params, jnp.float32)

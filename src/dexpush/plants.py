@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.geometry import Shape
-from dexpush.model import LAMBDA_TRUE, Contour, check_params, contact_gap, integrate
+from dexpush.model import LAMBDA_TRUE, Contour, check_params, checked_vector, contact_gap, integrate
 
 __all__ = ["ModelPlant", "Observation"]
 
@@ -47,15 +47,6 @@ def _advance(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, dt: jnp.ndarray,
     return x1, contact_gap(contour, x1)
 
 
-def _finite(name: str, value: object, last: int) -> np.ndarray:
-    a = np.asarray(value, dtype=np.float64)
-    if a.ndim == 0 or a.shape[-1] != last:
-        raise ValueError(f"{name} must have shape (..., {last}), got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains NaN or infinite values: {a}")
-    return a
-
-
 class ModelPlant:
     """The C-GVMM as the world, with true parameters (SPEC §3 "model plant").
 
@@ -74,7 +65,7 @@ class ModelPlant:
             raise ValueError(f"mu must be > 0, got {mu!r}")
         self.shape = shape
         self.contour = Contour.of(shape)
-        self.params = _finite("params", params, 3)
+        self.params = checked_vector("params", params, 3)
         check_params(self.params)
         self.mu = float(mu)
         self.substeps = int(substeps)
@@ -95,8 +86,8 @@ class ModelPlant:
 
     def reset(self, object_pose: object, pusher_xy: object) -> Observation:
         """Place the object and the pusher; the pusher must not start inside the object."""
-        q = _finite("object_pose", object_pose, 3)
-        p = _finite("pusher_xy", pusher_xy, 2)
+        q = checked_vector("object_pose", object_pose, 3, batch=True)
+        p = checked_vector("pusher_xy", pusher_xy, 2, batch=True)
         if q.shape[:-1] != p.shape[:-1]:
             raise ValueError(f"object_pose {q.shape} and pusher_xy {p.shape} batch shapes differ")
         x = jnp.asarray(np.concatenate([q, p], -1))
@@ -114,7 +105,7 @@ class ModelPlant:
         """Hold the pusher velocity (m/s, world frame) for ``dt`` seconds; return the observation."""
         if self._x is None:
             raise RuntimeError("call reset() before step()")
-        v = _finite("velocity", velocity, 2)
+        v = checked_vector("velocity", velocity, 2, batch=True)
         if v.shape[:-1] not in ((), self._x.shape[:-1]):
             raise ValueError(f"velocity batch shape {v.shape[:-1]} does not match the plant's "
                              f"{self._x.shape[:-1]}")

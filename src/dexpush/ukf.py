@@ -47,7 +47,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.model import Contour, contact_gap, integrate
+from dexpush.model import Contour, checked_vector, contact_gap, integrate
 
 __all__ = ["UKFSettings", "UKFState", "WindowEstimator", "sigma_points", "ukf_update"]
 
@@ -202,11 +202,7 @@ class WindowEstimator:
         if object_pose is None or pusher_xy is None:
             self._window.clear()      # a gap: the replay needs consecutive observations
             return False
-        x = np.concatenate([np.asarray(object_pose, np.float64).ravel(), np.asarray(pusher_xy, np.float64).ravel()])
-        if x.shape != (5,):
-            raise ValueError(f"expected an object pose (3,) and a pusher position (2,), got {x.shape[0]} values")
-        if not np.all(np.isfinite(x)):
-            raise ValueError(f"observation contains NaN or infinite values: {x}")
+        x = np.concatenate([checked_vector("object_pose", object_pose, 3), checked_vector("pusher_xy", pusher_xy, 2)])
         self._window.append(x)
         M = self.settings.window
         if len(self._window) > M + 1:
