@@ -1,14 +1,21 @@
-"""Closed-loop episodes on a plant, their records, and result files.
+"""Closed-loop episodes on a plant, their records, and the benchmark table (SPEC §5).
 
-:func:`run_episode` is one trial of SPEC §5: a plant, a :class:`PushingController`, the
-task's start and goal, up to N_max control steps at 0.04 s. It returns an
-:class:`Episode` with the trajectory (for plots) and the per-trial record (for tables).
+:func:`run_episode` is one trial: a plant, a :class:`PushingController`, the task's start
+and goal, up to N_max control steps at 0.04 s. It returns an :class:`Episode` with the
+trajectory (for plots) and the per-trial record (for tables). :func:`run_condition` runs
+the trials of one condition (task × shape × params × method), resumable from its file;
+:func:`write_tables` turns all records into JSON, CSV and Markdown. Trials run one after
+another (the batched, vmapped runner of issue 4 is not built yet).
 """
 
 from __future__ import annotations
 
+import csv
+import json
+import os
 import time
 from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
@@ -16,12 +23,14 @@ from tqdm import tqdm
 
 from dexpush.controller import ControllerSettings, PushingController
 from dexpush.cost import collides
+from dexpush.files import atomic_path, write_json_atomic
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
 from dexpush.plants import ModelPlant
 from dexpush.tasks import MAX_STEPS, Task, get_task, initial_conditions, is_success, pose_error
 
-__all__ = ["PARAMS", "SHAPES", "Episode", "EpisodeRecord", "make_shape", "run_episode"]
+__all__ = ["PARAMS", "SHAPES", "Episode", "EpisodeRecord", "make_shape", "run_condition", "run_episode",
+           "summarize", "write_tables"]
 
 #: λ_pred of the two parameter scenarios (paper Sec. IV-B)
 PARAMS = {"known": LAMBDA_TRUE, "unknown": (15.0, 0.0, 0.0)}
@@ -138,3 +147,89 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
         params_estimate=[round(float(v), 5) for v in ctrl.params] if method == "mppi-ukf" else None)
     return Episode(record, X, modes, U, ms, np.asarray(lam).reshape(-1, 3), np.asarray(task.goal),
                    np.asarray(task.obstacles).reshape(-1, 3))
+
+
+# ---------------------------------------------------------------------------- the §5 table
+CONDITION_KEYS = ("task", "shape", "params", "method")
+
+
+def condition_name(task: str, shape: str, params: str, method: str) -> str:
+    return f"{task}_{shape}_{params}_{method}"
+
+
+def run_condition(path: str | os.PathLike, task: str, shape: str, params: str, method: str,
+                  seeds: list[int], max_steps: int = MAX_STEPS, progress: bool = True) -> list[dict]:
+    """Run the trials of one condition, resuming from ``path`` (one JSON file per condition).
+
+    The file is rewritten atomically after every trial, so an interrupted run loses at most
+    the trial in progress; trials already recorded for a seed are not run again.
+    """
+    path = Path(path)
+    done: dict[int, dict] = {}
+    if path.exists():
+        try:
+            done = {int(r["seed"]): r for r in json.loads(path.read_text())["trials"]}
+        except (json.JSONDecodeError, KeyError, TypeError) as exc:
+            raise ValueError(f"{path}: not a dexpush condition file ({exc}); delete it to start over") from exc
+    todo = [s for s in seeds if s not in done]
+    shape_obj = make_shape(shape)
+    bar = tqdm(todo, desc=condition_name(task, shape, params, method), unit="trial", disable=not progress,
+               leave=False)
+    for seed in bar:
+        ep = run_episode(task, shape_obj, params=params, method=method, seed=seed, max_steps=max_steps)
+        done[seed] = ep.summary()
+        write_json_atomic(path, {"trials": [done[s] for s in sorted(done)]})
+    return [done[s] for s in seeds]
+
+
+def summarize(trials: list[dict]) -> dict:
+    """Per-condition numbers of SPEC §5 from its trial records."""
+    ok = [t for t in trials if t["success"]]
+
+    def mean_std(key: str) -> list[float] | None:
+        v = np.array([t[key] for t in ok], float)
+        return [round(float(v.mean()), 4), round(float(v.std()), 4)] if len(v) else None
+
+    plan = np.array([t["planning_ms_median"] for t in trials], float)
+    return {"trials": len(trials), "successes": len(ok),
+            "success_rate": round(len(ok) / len(trials), 4) if trials else None,
+            "object_path_m": mean_std("object_path_m"), "pusher_path_m": mean_std("pusher_path_m"),
+            "time_to_goal_s": mean_std("time_s"),
+            "planning_ms_median": round(float(np.median(plan)), 3) if len(plan) else None,
+            "planning_ms_max": round(float(max(t["planning_ms_max"] for t in trials)), 3) if trials else None}
+
+
+def write_tables(out: str | os.PathLike, records: list[dict], meta: dict) -> dict[str, str]:
+    """benchmark.json (trials + per-condition summary), benchmark.csv and benchmark.md."""
+    out = Path(out)
+    groups: dict[tuple, list[dict]] = {}
+    for r in records:
+        groups.setdefault(tuple(r[k] for k in CONDITION_KEYS), []).append(r)
+    summary = [dict(zip(CONDITION_KEYS, key)) | summarize(trials) for key, trials in groups.items()]
+    files = {"json": str(out / "benchmark.json"), "csv": str(out / "benchmark.csv"),
+             "markdown": str(out / "benchmark.md")}
+    write_json_atomic(files["json"], {"meta": meta, "summary": summary, "trials": records})
+    cols = list(records[0].keys()) if records else []
+    with atomic_path(files["csv"]) as tmp, open(tmp, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=cols)
+        writer.writeheader()
+        for r in records:
+            writer.writerow({k: json.dumps(v) if isinstance(v, list) else v for k, v in r.items()})
+
+    def fmt(ms: list[float] | None) -> str:
+        return f"{ms[0]:.3f} ± {ms[1]:.3f}" if ms else "–"
+
+    lines = [f"Produced by `{meta.get('command', '')}` on {meta.get('date', '')} ({meta.get('machine', '')}).", "",
+             "| task | shape | params | method | SR | object TL (m) | pusher TL (m) | time to goal (s) "
+             "| planning ms (median / max) |", "|---|---|---|---|---|---|---|---|---|"]
+    for s in summary:
+        lines.append(f"| {s['task']} | {s['shape']} | {s['params']} | {s['method']} | "
+                     f"{s['successes']}/{s['trials']} ({100 * s['success_rate']:.0f} %) | {fmt(s['object_path_m'])} | "
+                     f"{fmt(s['pusher_path_m'])} | {fmt(s['time_to_goal_s'])} | "
+                     f"{s['planning_ms_median']:.1f} / {s['planning_ms_max']:.0f} |")
+    for task in sorted({s["task"] for s in summary} & {"I", "II"}):
+        for shape in sorted({s["shape"] for s in summary}):
+            lines.append(f"| {task} | {shape} | – | gcs | not implemented | | | | |")
+    with atomic_path(files["markdown"]) as tmp:
+        tmp.write_text("\n".join(lines) + "\n")
+    return files

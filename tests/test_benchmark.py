@@ -1,0 +1,58 @@
+"""The benchmark runner: resumable conditions, tables that agree with their records."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from dexpush.benchmark import run_condition, summarize, write_tables
+from dexpush.cli import main
+
+
+def test_condition_resumes_without_rerunning_recorded_trials(tmp_path: Path) -> None:
+    path = tmp_path / "I_rect_known_mppi.json"
+    first = run_condition(path, "I", "rect", "known", "mppi", [0], max_steps=5, progress=False)
+    assert first[0]["steps"] == 5 and first[0]["seed"] == 0
+    # mark the recorded trial: a resumed run must keep it, not run seed 0 again
+    data = json.loads(path.read_text())
+    data["trials"][0]["planning_ms_max"] = -1.0
+    path.write_text(json.dumps(data))
+    both = run_condition(path, "I", "rect", "known", "mppi", [0, 1], max_steps=5, progress=False)
+    assert [t["seed"] for t in both] == [0, 1]
+    assert both[0]["planning_ms_max"] == -1.0
+    assert [t["seed"] for t in json.loads(path.read_text())["trials"]] == [0, 1]
+    path.write_text("{broken")
+    with pytest.raises(ValueError, match="not a dexpush condition file"):
+        run_condition(path, "I", "rect", "known", "mppi", [0], max_steps=5, progress=False)
+
+
+def test_tables_agree_with_records(tmp_path: Path) -> None:
+    records = [
+        dict(task="I", shape="rect", params="known", method="mppi", seed=s, success=ok, steps=n, time_s=n * 0.04,
+             object_path_m=op, pusher_path_m=pp, planning_ms_median=2.0, planning_ms_max=9.0)
+        for s, ok, n, op, pp in [(0, True, 100, 0.7, 1.0), (1, False, 1500, 0.2, 2.0), (2, True, 300, 0.9, 1.4)]
+    ]
+    s = summarize(records)
+    assert s["success_rate"] == pytest.approx(2 / 3, abs=1e-4) and s["successes"] == 2
+    assert s["object_path_m"][0] == pytest.approx(0.8) and s["pusher_path_m"][0] == pytest.approx(1.2)
+    assert s["time_to_goal_s"][0] == pytest.approx(8.0)
+    files = write_tables(tmp_path, records, {"command": "test", "date": "today", "machine": "here"})
+    saved = json.loads(Path(files["json"]).read_text())
+    assert saved["trials"] == records and saved["summary"][0]["success_rate"] == s["success_rate"]
+    md = Path(files["markdown"]).read_text()
+    assert "| I | rect | known | mppi | 2/3 (67 %) | 0.800 ± 0.100 |" in md
+    assert "gcs | not implemented" in md
+    assert len(Path(files["csv"]).read_text().strip().splitlines()) == 4
+
+
+def test_bench_cli_runs_a_tiny_table(tmp_path: Path, capsys) -> None:
+    code = main(["bench", "--tasks", "II", "--shapes", "rect", "--params", "unknown", "--methods", "mppi-ukf",
+                 "--trials", "1", "--max-steps", "5", "--quiet", "--out", str(tmp_path)])
+    assert code == 0
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert summary["trials"] == 1 and summary["conditions"] == 1
+    rec = json.loads((tmp_path / "benchmark.json").read_text())["trials"][0]
+    assert rec["method"] == "mppi-ukf" and len(rec["params_estimate"]) == 3
+    assert main(["bench", "--shapes", "star", "--out", str(tmp_path)]) == 2
