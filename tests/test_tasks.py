@@ -74,3 +74,12 @@ def test_effective_free_roaming_radius() -> None:
     tee = Shape.tee()
     assert float(Scene.make(tee, (0, 0, 0)).r_s) == pytest.approx(tee.bounding_radius + 0.05)
     assert float(Scene.make(tee, (0, 0, 0), weights=CostWeights(r_s_clearance=None)).r_s) == pytest.approx(0.2)
+
+
+def test_task_three_run_never_touches_the_obstacle() -> None:
+    """The controller heads for the goal past the disc: no step ends in collision."""
+    ep = run_episode("III", "rect", seed=0, max_steps=150)
+    assert ep.record.collisions == 0
+    assert ep.states[-1, 0] - ep.states[0, 0] > 0.1   # it did advance towards the obstacle's side
+    scene = Scene.make(Shape.rectangle(), (0.6, 0.0, 0.0), ((0.30, 0.0, 0.05),))
+    assert not np.any(np.asarray(collides(jnp.asarray(ep.states), scene)))
