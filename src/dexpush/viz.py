@@ -29,8 +29,9 @@ def save_figure_atomic(fig: plt.Figure, path: str | os.PathLike, **kwargs: objec
 
 
 def _draw_pose(ax: plt.Axes, shape: Shape, pose: np.ndarray, **kw: object) -> None:
-    for poly in shape.footprint_world(pose):
-        ax.add_patch(Polygon(poly, closed=True, **kw))
+    label = kw.pop("label", None)
+    for i, poly in enumerate(shape.footprint_world(pose)):   # one legend entry per pose, not per piece
+        ax.add_patch(Polygon(poly, closed=True, label=label if i == 0 else None, **kw))
 
 
 def _setup_axes(ax: plt.Axes, shape: Shape, states: np.ndarray, goal: np.ndarray,
