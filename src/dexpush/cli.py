@@ -1,4 +1,4 @@
-"""The ``dexpush`` command line (SPEC §8).
+"""dexpush: contact-aware planar pushing with the C-GVMM, long-horizon MPPI and a UKF.
 
     dexpush demo [--out DIR]                 Task I, rect, known parameters, MPPI
     dexpush run --task I --shape tee --params unknown --method mppi --seed 3 --out DIR
