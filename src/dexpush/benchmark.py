@@ -29,22 +29,22 @@ from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
 from dexpush.plants import ModelPlant
 from dexpush.tasks import MAX_STEPS, Task, get_task, initial_conditions, is_success, pose_error
 
-__all__ = ["PARAMS", "SHAPES", "Episode", "EpisodeRecord", "make_shape", "run_condition", "run_episode",
+__all__ = ["METHODS", "PARAMS", "SHAPES", "Episode", "EpisodeRecord", "make_shape", "run_condition", "run_episode",
            "summarize", "write_tables"]
 
 #: λ_pred of the two parameter scenarios (paper Sec. IV-B)
 PARAMS = {"known": LAMBDA_TRUE, "unknown": (15.0, 0.0, 0.0)}
-SHAPES = ("rect", "tee", "ellipse")
+_SHAPE_MAKERS = {"rect": Shape.rectangle, "tee": Shape.tee, "ellipse": Shape.ellipse}
+SHAPES = tuple(_SHAPE_MAKERS)
 METHODS = ("mppi", "mppi-ukf")
 CONTROL_PERIOD = 0.04
 
 
 def make_shape(name: str) -> Shape:
     """The standard shapes of SPEC §2.1 by name."""
-    makers = {"rect": Shape.rectangle, "tee": Shape.tee, "ellipse": Shape.ellipse}
-    if name not in makers:
-        raise ValueError(f"unknown shape {name!r}; choose one of {', '.join(makers)}")
-    return makers[name]()
+    if name not in _SHAPE_MAKERS:
+        raise ValueError(f"unknown shape {name!r}; choose one of {', '.join(SHAPES)}")
+    return _SHAPE_MAKERS[name]()
 
 
 @dataclass

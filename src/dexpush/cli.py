@@ -17,6 +17,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from dexpush.benchmark import METHODS, PARAMS, SHAPES
 from dexpush.tasks import MAX_STEPS
 
 __all__ = ["main"]
@@ -106,8 +107,7 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
 
     tasks = [get_task(t).key for t in args.tasks.split(",")]
     shapes, params, methods = (args.shapes.split(","), args.params.split(","), args.methods.split(","))
-    choices = (("shape", shapes, ("rect", "tee", "ellipse")), ("params", params, ("known", "unknown")),
-               ("method", methods, ("mppi", "mppi-ukf")))
+    choices = (("shape", shapes, SHAPES), ("params", params, tuple(PARAMS)), ("method", methods, METHODS))
     for name, values, allowed in choices:
         bad = [v for v in values if v not in allowed]
         if bad:
@@ -164,10 +164,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="one episode of a benchmark task")
     run.add_argument("--task", default="I", help="I, II or III (default I)")
-    run.add_argument("--shape", default="rect", choices=["rect", "tee", "ellipse"])
-    run.add_argument("--params", default="known", choices=["known", "unknown"],
+    run.add_argument("--shape", default="rect", choices=SHAPES)
+    run.add_argument("--params", default="known", choices=tuple(PARAMS),
                      help="λ_pred = λ_true (known) or [15, 0, 0] (unknown)")
-    run.add_argument("--method", default="mppi", choices=["mppi", "mppi-ukf"],
+    run.add_argument("--method", default="mppi", choices=METHODS,
                      help="MPPI with fixed λ_pred, or with the UKF estimating λ online")
     run.add_argument("--seed", type=_seed, default=0)
     run.add_argument("--plant", default="model", choices=["model"], help="the world (default model)")

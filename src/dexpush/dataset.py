@@ -44,7 +44,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.geometry import Shape
-from dexpush.model import FREE, MODE_NAMES, SLIDE_CCW, SLIDE_CW, STICK, Contour, contact_solution, integrate
+from dexpush.model import FREE, MODE_NAMES, SLIDE_CCW, SLIDE_CW, STICK, Contour, contact_solution, integrate, replay
+from dexpush.tasks import pose_error
 
 __all__ = ["OBJECTS", "PUSHER_RADIUS", "Push", "ValidationResult", "load_folder", "load_push", "validate"]
 
@@ -194,6 +195,19 @@ class Samples:
     push_index: np.ndarray    #: (S,) which push
 
 
+def _contact_geometry(contour: Contour, X: np.ndarray) -> tuple[np.ndarray, ...]:
+    """For observed states X (T, 5): unwrapped φ_c, R(φ_c), R'(φ_c), the gap |p| − R, and
+    the pusher centres moved radially onto the contour (the tip/Vicon offset removed)."""
+    rel = X[:, 3:] - X[:, :2]
+    c, s = np.cos(X[:, 2]), np.sin(X[:, 2])
+    body = np.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
+    phi = np.unwrap(np.arctan2(body[:, 1], body[:, 0]))
+    R, dR = (np.asarray(a, np.float64) for a in contour.lookup(jnp.asarray(np.angle(np.exp(1j * phi)))))
+    dist = np.linalg.norm(body, axis=-1)
+    on_contour = X[:, :2] + (R / dist)[:, None] * rel
+    return phi, R, dR, dist - R, on_contour
+
+
 def _samples(pushes: list[Push], shape: Shape, separation_mm: float, stick_ratio: float,
              min_speed_mm_s: float) -> Samples:
     contour = Contour.of(shape)
@@ -202,16 +216,9 @@ def _samples(pushes: list[Push], shape: Shape, separation_mm: float, stick_ratio
     for i, p in enumerate(pushes):
         X = p.states.copy()
         U = np.diff(p.pusher_xy, axis=0) / dt
-        rel = X[:, 3:] - X[:, :2]
-        c, s = np.cos(X[:, 2]), np.sin(X[:, 2])
-        body = np.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
-        phi = np.unwrap(np.arctan2(body[:, 1], body[:, 0]))
-        R, dR = (np.asarray(a, np.float64) for a in contour.lookup(jnp.asarray(np.angle(np.exp(1j * phi)))))
-        gap = np.linalg.norm(body, axis=-1) - R
+        phi, R, dR, gap, on_contour = _contact_geometry(contour, X)
         contact = gap <= separation_mm / 1000
-        # observed contact: put the pusher on the contour (removes the tip/Vicon calibration offset)
-        on = (R / np.linalg.norm(body, axis=-1))[:, None] * rel
-        X[contact, 3:] = X[contact, :2] + on[contact]
+        X[contact, 3:] = on_contour[contact]   # observed contact: pusher on the contour
         slide = np.hypot(R, dR)[:-1] * np.diff(phi) / dt        # contact-point speed along the contour
         speed = np.linalg.norm(U, axis=-1)
         obs = np.where(~(contact[:-1] & contact[1:]), FREE,
@@ -228,10 +235,9 @@ def _one_step(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, lam: jnp.ndarray
     return integrate(contour, x, u, 1.0 / RATE_HZ, lam, mu, 10)
 
 
-def _pose_errors(pred: np.ndarray, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    pos = np.linalg.norm(pred[..., :2] - obs[..., :2], axis=-1)
-    head = np.abs(np.angle(np.exp(1j * (pred[..., 2] - obs[..., 2]))))
-    return pos, head
+@jax.jit
+def _replay_final(contour: Contour, x0: jnp.ndarray, U: jnp.ndarray, lam: jnp.ndarray, mu: jnp.ndarray) -> jnp.ndarray:
+    return replay(contour, x0, U, 1.0 / RATE_HZ, lam, mu, 10)[-1]
 
 
 def _residuals(contour: Contour, smp: Samples, lam: np.ndarray, mu: float) -> np.ndarray:
@@ -295,18 +301,13 @@ def whole_push_errors(contour: Contour, pushes: list[Push], lam: np.ndarray, mu:
     pos, head = [], []
     for p in pushes:
         x0 = p.states[0].copy()
-        rel = x0[3:] - x0[:2]
-        c, s = np.cos(x0[2]), np.sin(x0[2])
-        phi = np.arctan2(-s * rel[0] + c * rel[1], c * rel[0] + s * rel[1])
-        R, _ = contour.lookup(jnp.asarray(phi, jnp.float32))
-        x0[3:] = x0[:2] + float(R) * rel / np.linalg.norm(rel)  # pushes start in contact (dataset README)
-        x = jnp.asarray(x0, jnp.float32)
+        x0[3:] = _contact_geometry(contour, x0[None])[4][0]   # pushes start in contact (dataset README)
         U = np.diff(p.pusher_xy, axis=0) * RATE_HZ
-        for u in U:
-            x = _one_step(contour, x, jnp.asarray(u, jnp.float32), jnp.asarray(lam, jnp.float32), jnp.float32(mu))
-        e_pos, e_head = _pose_errors(np.asarray(x[:3], np.float64), p.object_pose[-1])
+        x = _replay_final(contour, jnp.asarray(x0, jnp.float32), jnp.asarray(U, jnp.float32),
+                          jnp.asarray(lam, jnp.float32), jnp.float32(mu))
+        e_pos, e_head = pose_error(np.asarray(x[:3], np.float64), p.object_pose[-1])
         pos.append(e_pos * 1000)
-        head.append(np.degrees(e_head))
+        head.append(e_head)
     return float(np.mean(pos)), float(np.mean(head))
 
 
@@ -365,7 +366,7 @@ def validate(pushes: list[Push], mu: float = 0.25, separation_mm: float = 3.0, s
         summary["objects"][obj] = entry
         summary["samples"] += len(smp.observed)
         per_object[obj] = {"decision": np.asarray(sol.decision, np.float64), "boundary": np.asarray(sol.boundary),
-                           "observed": smp.observed, "predicted": predicted, "beta": beta}
+                           "observed": smp.observed, "predicted": predicted, "confusion": confusion, "beta": beta}
     summary["mode_agreement"] = round(agree_total / summary["samples"], 4)
     for key in ("one_step_error_mm", "one_step_error_deg", "whole_push_error_mm", "whole_push_error_deg"):
         summary[key] = round(float(np.mean([e[key] for e in summary["objects"].values()])), 3)

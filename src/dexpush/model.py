@@ -52,6 +52,7 @@ __all__ = [
     "contact_gap",
     "force_motion",
     "integrate",
+    "replay",
     "resolve_penetration",
     "solve_contact",
     "step",
@@ -300,6 +301,20 @@ def integrate(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, duration: float 
     """Hold ``u`` for ``duration`` seconds, integrating with ``substeps`` calls of :func:`step`."""
     h = duration / substeps
     return jax.lax.fori_loop(0, substeps, lambda _, xi: step(contour, xi, u, h, params, mu), x)
+
+
+def replay(contour: Contour, x0: jnp.ndarray, inputs: jnp.ndarray, dt: float | jnp.ndarray,
+           params: jnp.ndarray, mu: float | jnp.ndarray = 0.3, substeps: int = 10) -> jnp.ndarray:
+    """States (T, 5) after each of the T inputs (T, 2), each held for ``dt`` from ``x0`` (5,).
+
+    An open-loop replay of recorded pusher motion: the UKF's measurement model and the
+    dataset's whole-push prediction.
+    """
+    def body(x: jnp.ndarray, u: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray]:
+        x1 = integrate(contour, x, u, dt, params, mu, substeps)
+        return x1, x1
+
+    return jax.lax.scan(body, x0, inputs)[1]
 
 
 # ---------------------------------------------------------------------- public, checked entry

@@ -47,7 +47,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.model import Contour, checked_vector, contact_gap, integrate
+from dexpush.model import Contour, checked_vector, contact_gap, replay
 
 __all__ = ["UKFSettings", "UKFState", "WindowEstimator", "sigma_points", "ukf_update"]
 
@@ -138,15 +138,12 @@ def _window_update(state: UKFState, contour: Contour, window: jnp.ndarray, dt: j
     moves = (window[1:, 3:] - window[:-1, 3:]) / dt            # recorded pusher velocities
     observed = window[1:, :3]
 
-    def replay(lam: jnp.ndarray) -> jnp.ndarray:
-        def body(x, u):
-            x1 = integrate(contour, x, u, dt, lam, mu, substeps)
-            return x1, x1[:3]
-        _, q = jax.lax.scan(body, x0, moves)
+    def predicted_poses(lam: jnp.ndarray) -> jnp.ndarray:
+        q = replay(contour, x0, moves, dt, lam, mu, substeps)[:, :3]
         # heading relative to the observation, so the residual is wrapped
         return jnp.concatenate([q[:, :2], (observed[:, 2] + _wrap(q[:, 2] - observed[:, 2]))[:, None]], -1).ravel()
 
-    h = jax.vmap(replay)
+    h = jax.vmap(predicted_poses)
     M = observed.shape[0]
     r = jnp.tile(jnp.asarray([settings.meas_pos_std**2, settings.meas_pos_std**2, settings.meas_heading_std**2]), M)
     Q = jnp.diag(jnp.asarray(settings.process_std) ** 2)

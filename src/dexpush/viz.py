@@ -163,7 +163,7 @@ def plot_mode_decisions(per_object: dict, mu: float, path: str | os.PathLike | N
             ax.plot([0, 1.3 * v[0]], [0, 1.3 * v[1]], "k-", lw=1.5)
         ax.plot([], [], "k-", label=f"friction cone [1, ±{mu}]")
         ax.plot([], [], color="0.6", ls="--", label="boundary ±Γ⁻¹η (per sample)")
-        agree = np.mean(d["observed"] == d["predicted"])
+        agree = np.trace(d["confusion"]) / len(d["observed"])
         ax.set_title(f"{name}: β = {d['beta']:.1f} 1/m, mode agreement {agree:.0%}", fontsize=9)
         ax.set_xlabel("(Γ⁻¹w)₀ / |Γ⁻¹w|  (normal)")
         ax.set_ylabel("(Γ⁻¹w)₁ / |Γ⁻¹w|  (tangential)")
@@ -183,9 +183,7 @@ def plot_confusion(per_object: dict, path: str | os.PathLike | None = None) -> p
     names = sorted(per_object)
     fig, axes = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.8), squeeze=False)
     for ax, name in zip(axes[0], names):
-        d = per_object[name]
-        cm = np.zeros((4, 4), int)
-        np.add.at(cm, (d["observed"], d["predicted"]), 1)
+        cm = per_object[name]["confusion"]
         ax.imshow(cm, cmap="Blues")
         for i in range(4):
             for j in range(4):
