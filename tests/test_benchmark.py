@@ -3,29 +3,47 @@
 from __future__ import annotations
 
 import json
+from functools import partial
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from dexpush.benchmark import run_condition, summarize, write_tables
+from dexpush.benchmark import run_benchmark, summarize, write_tables
 from dexpush.cli import main
 
 
-def test_condition_resumes_without_rerunning_recorded_trials(tmp_path: Path) -> None:
-    path = tmp_path / "I_rect_known_mppi.json"
-    first = run_condition(path, "I", "rect", "known", "mppi", [0], max_steps=5, progress=False)
-    assert first[0]["steps"] == 5 and first[0]["seed"] == 0
+def test_benchmark_resumes_without_rerunning_recorded_trials(tmp_path: Path) -> None:
+    run = partial(run_benchmark, tmp_path, ["I"], ["rect"], ["known"], ["mppi"], max_steps=5, lanes=2,
+                  progress=False)
+    first = run([0])
+    assert first[0]["steps"] == 5 and first[0]["seed"] == 0 and first[0]["lanes"] == 2
+    path = tmp_path / "conditions" / "I_rect_known_mppi.json"
     # mark the recorded trial: a resumed run must keep it, not run seed 0 again
     data = json.loads(path.read_text())
     data["trials"][0]["planning_ms_max"] = -1.0
     path.write_text(json.dumps(data))
-    both = run_condition(path, "I", "rect", "known", "mppi", [0, 1], max_steps=5, progress=False)
+    both = run([0, 1])
     assert [t["seed"] for t in both] == [0, 1]
     assert both[0]["planning_ms_max"] == -1.0
     assert [t["seed"] for t in json.loads(path.read_text())["trials"]] == [0, 1]
+    with np.load(tmp_path / "trajectories" / "I_rect_known_mppi.npz") as npz:
+        assert sorted(npz.files) == ["seed_0", "seed_1"] and npz["seed_1"].shape == (6, 5)
+    assert (tmp_path / "figures" / "I_rect_known_mppi.png").stat().st_size > 0
     path.write_text("{broken")
     with pytest.raises(ValueError, match="not a dexpush condition file"):
-        run_condition(path, "I", "rect", "known", "mppi", [0], max_steps=5, progress=False)
+        run([0])
+
+
+def test_rerunning_one_seed_reproduces_its_record(tmp_path: Path) -> None:
+    """Seed 1 run beside seed 0 and then alone (same lanes) gives the same record, bit for bit."""
+    common = dict(max_steps=40, lanes=2, progress=False, figures=False)
+    both = run_benchmark(tmp_path / "a", ["II"], ["rect"], ["unknown"], ["mppi-ukf"], [0, 1], **common)
+    alone = run_benchmark(tmp_path / "b", ["II"], ["rect"], ["unknown"], ["mppi-ukf"], [1], **common)
+    timing = {"planning_ms_median", "planning_ms_max"}
+    strip = [{k: v for k, v in r.items() if k not in timing} for r in (both[1], alone[0])]
+    assert strip[0] == strip[1]
+    assert strip[0]["params_estimate"] != [15.0, 0.0, 0.0]   # the UKF did move λ
 
 
 def test_tables_agree_with_records(tmp_path: Path) -> None:

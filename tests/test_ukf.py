@@ -78,8 +78,9 @@ def test_ukf_rejects_nan_and_restarts_after_a_dropped_frame() -> None:
         est.observe([0.0, 0.0], [0.1, 0.0])
     for _ in range(5):
         est.observe([0.0, 0.0, 0.0], [0.2, 0.0])
+    assert est.window_length == 5
     est.observe(None)
-    assert len(est._window) == 0
+    assert est.window_length == 0
 
 
 @pytest.mark.parametrize("bad", [dict(window=0), dict(meas_pos_std=0.0), dict(lower=(0.0, -0.05, -0.05))])

@@ -1,11 +1,15 @@
-"""Closed-loop episodes on a plant, their records, and the benchmark table (SPEC §5).
+"""Closed-loop episodes on the model plant, their records, and the benchmark table (SPEC §5).
 
-:func:`run_episode` is one trial: a plant, a :class:`PushingController`, the task's start
-and goal, up to N_max control steps at 0.04 s. It returns an :class:`Episode` with the
-trajectory (for plots) and the per-trial record (for tables). :func:`run_condition` runs
-the trials of one condition (task × shape × params × method), resumable from its file;
-:func:`write_tables` turns all records into JSON, CSV and Markdown. Trials run one after
-another (the batched, vmapped runner of issue 4 is not built yet).
+Every simulated episode goes through :func:`dexpush.simulate.simulate`, which runs the
+controller's pure step and the model plant for a whole batch of trials in one jitted,
+vmapped call. :func:`run_episode` is one trial (``dexpush run``); :func:`run_benchmark`
+runs the §5 table, all conditions of a task and shape in one queue of lanes, and saves
+every finished trial at once in its condition's file, so an interrupted run resumes
+where it stopped. :func:`write_tables` turns the records into JSON, CSV and Markdown.
+
+Re-running a trial: the outcome recorded for a seed is reproduced bit for bit by the same
+command on any subset of seeds, or by ``dexpush run ... --seed S --lanes 32`` (the bench's
+lane count; see :mod:`dexpush.simulate` for why the lane count matters).
 """
 
 from __future__ import annotations
@@ -13,24 +17,24 @@ from __future__ import annotations
 import csv
 import json
 import os
-import time
-from dataclasses import asdict, dataclass, field, replace
+import sys
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
-from tqdm import tqdm
 
-from dexpush.controller import ControllerSettings, PushingController
-from dexpush.cost import collides
+from dexpush.controller import ControllerSettings
+from dexpush.cost import Scene, collides
 from dexpush.files import atomic_path, write_json_atomic
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
-from dexpush.plants import ModelPlant
-from dexpush.tasks import MAX_STEPS, Task, get_task, initial_conditions, is_success, pose_error
+from dexpush.simulate import TrialResult, TrialSpec, simulate
+from dexpush.tasks import MAX_STEPS, Task, get_task, pose_error
 
-__all__ = ["METHODS", "PARAMS", "SHAPES", "Episode", "EpisodeRecord", "make_shape", "run_condition", "run_episode",
-           "summarize", "write_tables"]
+__all__ = ["BENCH_LANES", "METHODS", "PARAMS", "SHAPES", "Episode", "EpisodeRecord", "make_shape", "run_benchmark",
+           "run_episode", "summarize", "write_tables"]
 
 #: λ_pred of the two parameter scenarios (paper Sec. IV-B)
 PARAMS = {"known": LAMBDA_TRUE, "unknown": (15.0, 0.0, 0.0)}
@@ -38,6 +42,7 @@ _SHAPE_MAKERS = {"rect": Shape.rectangle, "tee": Shape.tee, "ellipse": Shape.ell
 SHAPES = tuple(_SHAPE_MAKERS)
 METHODS = ("mppi", "mppi-ukf")
 CONTROL_PERIOD = 0.04
+BENCH_LANES = 32   #: trials the benchmark advances together (one compiled program for every run)
 
 
 def make_shape(name: str) -> Shape:
@@ -65,9 +70,10 @@ class EpisodeRecord:
     final_error_deg: float
     collisions: int               #: control steps that ended in collision with an obstacle
     contact_switches: int         #: contact on/off transitions
-    planning_ms_median: float
-    planning_ms_max: float
+    planning_ms_median: float     #: wall time of one control step (UKF + MPPI + plant), amortized
+    planning_ms_max: float        #: over the lanes of the batch: median and max over its chunks
     params_estimate: list[float] | None = None
+    lanes: int = 1                #: lanes of the batch it ran in (needed to reproduce it exactly)
 
 
 @dataclass
@@ -78,7 +84,7 @@ class Episode:
     states: np.ndarray            #: (T+1, 5) true states
     modes: np.ndarray             #: (T,) contact mode at the start of each control step
     commands: np.ndarray          #: (T, 2)
-    planning_ms: np.ndarray       #: (T,)
+    planning_ms: np.ndarray       #: (T,) wall time per control step (amortized, see EpisodeRecord)
     params: np.ndarray            #: (T, 3) λ_pred the controller planned with at each step
     goal: np.ndarray
     obstacles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
@@ -91,62 +97,62 @@ def _path_length(xy: np.ndarray) -> float:
     return float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=-1)))
 
 
-def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str = "known",
-                method: str = "mppi", seed: int = 0, max_steps: int = MAX_STEPS,
-                settings: ControllerSettings | None = None, progress: bool = False) -> Episode:
-    """Run one closed-loop trial on the model plant (SPEC §5) and record it."""
-    task = get_task(task)
-    shape_name = shape if isinstance(shape, str) else shape.name
-    shape = make_shape(shape) if isinstance(shape, str) else shape
+def _check_condition(params: str, method: str) -> None:
     if params not in PARAMS:
         raise ValueError(f"unknown params {params!r}; choose 'known' or 'unknown'")
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
-    if max_steps < 1:
-        raise ValueError(f"max_steps must be >= 1, got {max_steps}")
-    pose, pusher = initial_conditions(task, shape, seed)
-    plant = ModelPlant(shape, params=LAMBDA_TRUE)
-    obs = plant.reset(pose, pusher)
-    settings = settings or ControllerSettings()
-    settings = replace(settings, estimate_params=(method == "mppi-ukf"))
-    ctrl = PushingController(shape, task.goal, params=PARAMS[params], obstacles=task.obstacles,
-                             settings=settings, seed=seed)
-    scene = ctrl.scene
-    contour = Contour.of(shape)
 
-    states, commands, plan_ms, lam = [obs.state], [], [], []
-    success = bool(is_success(obs.object_pose, task.goal))
-    bar = tqdm(total=max_steps, desc=f"task {task.key} {shape_name}", unit="step", disable=not progress,
-               leave=False)
-    while not success and len(commands) < max_steps:
-        t0 = time.perf_counter()
-        u = ctrl.command(obs.object_pose, obs.pusher_xy)
-        plan_ms.append((time.perf_counter() - t0) * 1e3)
-        lam.append(ctrl.params)
-        obs = plant.step(u, CONTROL_PERIOD)
-        commands.append(u)
-        states.append(obs.state)
-        success = bool(is_success(obs.object_pose, task.goal))
-        bar.update(1)
-    bar.close()
 
-    X = np.asarray(states)
-    U = np.asarray(commands).reshape(-1, 2)
-    modes = np.asarray(contact_solution(contour, X[:-1], U, LAMBDA_TRUE).mode) if len(U) else np.zeros(0, int)
+def trial_spec(params: str, method: str, seed: int) -> TrialSpec:
+    """The :class:`TrialSpec` of one benchmark trial."""
+    _check_condition(params, method)
+    return TrialSpec(int(seed), PARAMS[params], method == "mppi-ukf")
+
+
+def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method: str, result: TrialResult,
+                 lanes: int, scene: Scene | None = None) -> Episode:
+    """The record (SPEC §5) and trajectory of a finished trial."""
+    scene = scene or Scene.make(shape, task.goal, task.obstacles)
+    X, U = result.states, result.commands
+    if len(U):
+        modes = np.asarray(contact_solution(Contour.of(shape), X[:-1], U, LAMBDA_TRUE).mode)
+        hits = np.asarray(collides(jnp.asarray(X[1:], jnp.float32), scene))
+    else:
+        modes, hits = np.zeros(0, int), np.zeros(0, bool)
     in_contact = modes != MODE_NAMES.index("free")
-    hits = np.asarray(collides(jnp.asarray(X[1:]), scene)) if len(U) else np.zeros(0, bool)
     pos_err, head_err = pose_error(X[-1, :3], task.goal)
-    ms = np.asarray(plan_ms) if plan_ms else np.zeros(1)
+    ms = result.step_ms if len(result.step_ms) else np.zeros(1)
     record = EpisodeRecord(
-        task=task.key, shape=shape_name, params=params, method=method, seed=int(seed), success=success,
-        steps=len(U), time_s=round(len(U) * CONTROL_PERIOD, 3),
+        task=task.key, shape=shape_name, params=params, method=method, seed=result.spec.seed,
+        success=bool(result.success), steps=len(U), time_s=round(len(U) * CONTROL_PERIOD, 3),
         object_path_m=round(_path_length(X[:, :2]), 4), pusher_path_m=round(_path_length(X[:, 3:]), 4),
         final_error_m=round(float(pos_err), 5), final_error_deg=round(float(head_err), 3),
         collisions=int(np.sum(hits)), contact_switches=int(np.sum(in_contact[1:] != in_contact[:-1])),
         planning_ms_median=round(float(np.median(ms)), 3), planning_ms_max=round(float(np.max(ms)), 3),
-        params_estimate=[round(float(v), 5) for v in ctrl.params] if method == "mppi-ukf" else None)
-    return Episode(record, X, modes, U, ms, np.asarray(lam).reshape(-1, 3), np.asarray(task.goal),
+        params_estimate=[round(float(v), 5) for v in result.params[-1]] if method == "mppi-ukf" and len(U) else None,
+        lanes=int(lanes))
+    return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(task.goal),
                    np.asarray(task.obstacles).reshape(-1, 3))
+
+
+def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str = "known",
+                method: str = "mppi", seed: int = 0, max_steps: int = MAX_STEPS,
+                settings: ControllerSettings | None = None, progress: bool = False, lanes: int = 1,
+                chunk: int = 25) -> Episode:
+    """Run one closed-loop trial on the model plant (SPEC §5) and record it.
+
+    ``lanes`` = :data:`BENCH_LANES` reproduces the benchmark's record of this seed exactly.
+    """
+    task = get_task(task)
+    shape_name = shape if isinstance(shape, str) else shape.name
+    shape = make_shape(shape) if isinstance(shape, str) else shape
+    spec = trial_spec(params, method, seed)
+    if max_steps < 1:
+        raise ValueError(f"max_steps must be >= 1, got {max_steps}")
+    result = simulate(task, shape, [spec], settings, max_steps=max_steps, lanes=lanes, chunk=chunk,
+                      progress=progress, desc=f"task {task.key} {shape_name}")[0]
+    return make_episode(task, shape_name, shape, params, method, result, lanes)
 
 
 # ---------------------------------------------------------------------------- the §5 table
@@ -157,29 +163,99 @@ def condition_name(task: str, shape: str, params: str, method: str) -> str:
     return f"{task}_{shape}_{params}_{method}"
 
 
-def run_condition(path: str | os.PathLike, task: str, shape: str, params: str, method: str,
-                  seeds: list[int], max_steps: int = MAX_STEPS, progress: bool = True) -> list[dict]:
-    """Run the trials of one condition, resuming from ``path`` (one JSON file per condition).
+def _load_condition(path: Path) -> dict[int, dict]:
+    if not path.exists():
+        return {}
+    try:
+        return {int(r["seed"]): r for r in json.loads(path.read_text())["trials"]}
+    except (json.JSONDecodeError, KeyError, TypeError) as exc:
+        raise ValueError(f"{path}: not a dexpush condition file ({exc}); delete it to start over") from exc
 
-    The file is rewritten atomically after every trial, so an interrupted run loses at most
-    the trial in progress; trials already recorded for a seed are not run again.
+
+def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence[str], params: Sequence[str],
+                  methods: Sequence[str], seeds: Sequence[int], max_steps: int = MAX_STEPS,
+                  lanes: int = BENCH_LANES, settings: ControllerSettings | None = None,
+                  progress: bool = True, figures: bool = True) -> list[dict]:
+    """Run the trials of every condition (task × shape × params × method), resumably.
+
+    Each condition has its file ``out/conditions/<task>_<shape>_<params>_<method>.json``,
+    rewritten atomically as each of its trials ends; trials already recorded there are
+    not run again. The trials of all conditions of one task and shape share one queue of
+    ``lanes`` (see :func:`dexpush.simulate.simulate`). With ``figures`` each condition's
+    trajectories go to ``out/trajectories/<condition>.npz`` and a figure
+    ``out/figures/<condition>.png``. Returns the records in condition, then seed, order.
     """
-    path = Path(path)
-    done: dict[int, dict] = {}
+    from dexpush.viz import plot_condition
+
+    out = Path(out)
+    tasks = [get_task(t) for t in tasks]
+    for p in params:
+        for m in methods:
+            _check_condition(p, m)
+    seeds = sorted({int(s) for s in seeds})
+    records: dict[str, dict[int, dict]] = {}
+    for task in tasks:
+        for shape_name in shapes:
+            shape = make_shape(shape_name)
+            scene = Scene.make(shape, task.goal, task.obstacles)
+            names = {(p, m): condition_name(task.key, shape_name, p, m) for p in params for m in methods}
+            todo: list[tuple[str, str]] = []
+            specs: list[TrialSpec] = []
+            for (p, m), name in names.items():
+                records[name] = _load_condition(out / "conditions" / f"{name}.json")
+                for s in seeds:
+                    if s not in records[name]:
+                        todo.append((p, m))
+                        specs.append(trial_spec(p, m, s))
+            paths: dict[str, dict[int, np.ndarray]] = {name: {} for name in names.values()}
+            owner = {id(spec): pm for spec, pm in zip(specs, todo)}
+
+            def save(result: TrialResult, task: Task = task, shape_name: str = shape_name, shape: Shape = shape,
+                     scene: Scene = scene, names: dict = names, paths: dict = paths, owner: dict = owner) -> None:
+                p, m = owner[id(result.spec)]
+                name = names[(p, m)]
+                ep = make_episode(task, shape_name, shape, p, m, result, lanes, scene)
+                records[name][result.spec.seed] = ep.summary()
+                write_json_atomic(out / "conditions" / f"{name}.json",
+                                  {"trials": [records[name][s] for s in sorted(records[name])]})
+                paths[name][result.spec.seed] = result.states.astype(np.float32)
+
+            if specs:
+                if progress:
+                    print(f"task {task.key}, {shape_name}: {len(specs)} trials in {lanes} lanes", file=sys.stderr,
+                          flush=True)
+                simulate(task, shape, specs, settings, max_steps=max_steps, lanes=lanes, on_result=save,
+                         progress=progress, desc=f"task {task.key} {shape_name}")
+            if figures:
+                for name, new in paths.items():
+                    _save_trajectories(out, name, new, shape, task, records[name], plot_condition)
+    order = [condition_name(t.key, sh, p, m) for t in tasks for sh in shapes for p in params for m in methods]
+    return [records[name][s] for name in order for s in seeds]
+
+
+def _save_trajectories(out: Path, name: str, new: dict[int, np.ndarray], shape: Shape, task: Task,
+                       recs: dict[int, dict], plot) -> None:
+    """Merge new trajectories into the condition's npz and redraw its figure."""
+    import matplotlib.pyplot as plt
+
+    path = out / "trajectories" / f"{name}.npz"
+    trajs: dict[int, np.ndarray] = {}
     if path.exists():
-        try:
-            done = {int(r["seed"]): r for r in json.loads(path.read_text())["trials"]}
-        except (json.JSONDecodeError, KeyError, TypeError) as exc:
-            raise ValueError(f"{path}: not a dexpush condition file ({exc}); delete it to start over") from exc
-    todo = [s for s in seeds if s not in done]
-    shape_obj = make_shape(shape)
-    bar = tqdm(todo, desc=condition_name(task, shape, params, method), unit="trial", disable=not progress,
-               leave=False)
-    for seed in bar:
-        ep = run_episode(task, shape_obj, params=params, method=method, seed=seed, max_steps=max_steps)
-        done[seed] = ep.summary()
-        write_json_atomic(path, {"trials": [done[s] for s in sorted(done)]})
-    return [done[s] for s in seeds]
+        with np.load(path) as data:
+            trajs = {int(k.split("_")[1]): data[k] for k in data.files}
+    trajs.update(new)
+    if not trajs:
+        return
+    if new:
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **{f"seed_{s}": trajs[s] for s in sorted(trajs)})
+    seeds = sorted(s for s in trajs if s in recs)
+    ok = sum(recs[s]["success"] for s in seeds)
+    fig = plot(shape, [trajs[s] for s in seeds], [recs[s]["success"] for s in seeds], np.asarray(task.goal),
+               np.asarray(task.obstacles).reshape(-1, 3),
+               title=f"{name.replace('_', ' · ')}: {ok}/{len(seeds)} successes",
+               path=out / "figures" / f"{name}.png")
+    plt.close(fig)
 
 
 def summarize(trials: list[dict]) -> dict:

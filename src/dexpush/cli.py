@@ -3,6 +3,7 @@
     dexpush demo [--out DIR]                 Task I, rect, known parameters, MPPI
     dexpush run --task I --shape tee --params unknown --method mppi --seed 3 --out DIR
     dexpush bench [--tasks I,II --shapes rect --trials 5 --out DIR]   the Sec. IV-B table
+    dexpush bench --tasks I --shapes tee --params unknown --methods mppi --seeds 7   re-run one trial
     dexpush validate-mit DATA_DIR [--out DIR]  C-GVMM against recorded MIT pushes
 
 Every command writes its files under ``--out`` and prints a one-line JSON summary last.
@@ -14,10 +15,11 @@ import argparse
 import json
 import os
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from dexpush.benchmark import METHODS, PARAMS, SHAPES
+from dexpush.benchmark import BENCH_LANES, METHODS, PARAMS, SHAPES
 from dexpush.tasks import MAX_STEPS
 
 __all__ = ["main"]
@@ -62,7 +64,7 @@ def _cmd_run(args: argparse.Namespace) -> dict:
     shape = make_shape(args.shape)
     settings = ControllerSettings(mppi=MPPISettings(num_samples=args.samples))
     episode = run_episode(args.task, shape, params=args.params, method=args.method, seed=args.seed,
-                          max_steps=args.max_steps, settings=settings, progress=not args.quiet)
+                          max_steps=args.max_steps, settings=settings, progress=not args.quiet, lanes=args.lanes)
     out = Path(args.out)
     files = _episode_files(episode, shape, out, animation=not args.no_animation)
     summary = episode.summary()
@@ -98,11 +100,26 @@ def _cmd_validate(args: argparse.Namespace) -> dict:
     return summary
 
 
+def _seed_list(text: str) -> list[int]:
+    """``0-29`` or ``3,7,11`` (or a mix) → sorted seeds."""
+    seeds: set[int] = set()
+    for part in text.split(","):
+        lo, _, hi = part.strip().partition("-")
+        try:
+            a, b = int(lo), int(hi or lo)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"seeds must look like 0-29 or 3,7,11, got {text!r}") from None
+        if a < 0 or b < a:
+            raise argparse.ArgumentTypeError(f"bad seed range {part!r} in {text!r}")
+        seeds.update(range(a, b + 1))
+    return sorted(seeds)
+
+
 def _cmd_bench(args: argparse.Namespace) -> dict:
     import datetime
     import platform
 
-    from dexpush.benchmark import condition_name, run_condition, write_tables
+    from dexpush.benchmark import run_benchmark, write_tables
     from dexpush.tasks import get_task
 
     tasks = [get_task(t).key for t in args.tasks.split(",")]
@@ -112,23 +129,24 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
         bad = [v for v in values if v not in allowed]
         if bad:
             raise ValueError(f"unknown {name} {bad[0]!r}; choose from {', '.join(allowed)}")
-    out = Path(args.out)
-    seeds = list(range(args.trials))
-    records = []
-    conditions = [(t, s, p, m) for t in tasks for s in shapes for p in params for m in methods]
-    for i, (t, s, p, m) in enumerate(conditions):
-        if not args.quiet:
-            print(f"[{i + 1}/{len(conditions)}] {condition_name(t, s, p, m)}", file=sys.stderr, flush=True)
-        records += run_condition(out / "conditions" / f"{condition_name(t, s, p, m)}.json", t, s, p, m, seeds,
-                                 max_steps=args.max_steps, progress=not args.quiet)
+    seeds = args.seeds if args.seeds is not None else list(range(args.trials))
+    t0 = time.perf_counter()
+    records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
+                            lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures)
+    wall = time.perf_counter() - t0
+    seed_text = f"--seeds {args.seeds_text}" if args.seeds is not None else f"--trials {args.trials}"
     meta = {"command": f"dexpush bench --tasks {args.tasks} --shapes {args.shapes} --params {args.params} "
-                       f"--methods {args.methods} --trials {args.trials} --out {args.out}",
+                       f"--methods {args.methods} {seed_text} --lanes {args.lanes} --out {args.out}",
             "date": datetime.date.today().isoformat(),
-            "machine": f"{platform.machine()}, {os.cpu_count()} CPUs"}
-    files = write_tables(out, records, meta)
+            "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.python_implementation()} "
+                       f"{platform.python_version()}",
+            "wall_s_this_invocation": round(wall, 1)}
+    files = write_tables(args.out, records, meta)
     ok = sum(r["success"] for r in records)
-    return {"conditions": len(conditions), "trials": len(records), "successes": ok,
-            "success_rate": round(ok / len(records), 4), "files": files}
+    n_cond = len(tasks) * len(shapes) * len(params) * len(methods)
+    return {"conditions": n_cond, "trials": len(records), "successes": ok,
+            "success_rate": round(ok / len(records), 4) if records else None, "wall_s": round(wall, 1),
+            "files": files}
 
 
 def _positive_int(text: str) -> int:
@@ -160,7 +178,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     demo = sub.add_parser("demo", help="closed-loop demo: Task I, rect, known parameters, MPPI")
     episode_args(demo, "out/demo")
-    demo.set_defaults(task="I", shape="rect", params="known", method="mppi", seed=0, func=_cmd_run)
+    demo.set_defaults(task="I", shape="rect", params="known", method="mppi", seed=0, lanes=1, func=_cmd_run)
 
     run = sub.add_parser("run", help="one episode of a benchmark task")
     run.add_argument("--task", default="I", help="I, II or III (default I)")
@@ -171,15 +189,22 @@ def build_parser() -> argparse.ArgumentParser:
                      help="MPPI with fixed λ_pred, or with the UKF estimating λ online")
     run.add_argument("--seed", type=_seed, default=0)
     run.add_argument("--plant", default="model", choices=["model"], help="the world (default model)")
+    run.add_argument("--lanes", type=_positive_int, default=1,
+                     help="batch lanes of the simulation (default 1); 32 reproduces a `dexpush bench` record exactly")
     episode_args(run, "out/run")
     run.set_defaults(func=_cmd_run)
 
-    bench = sub.add_parser("bench", help="the paper's Sec. IV-B table (resumable; trials run one by one)")
+    bench = sub.add_parser("bench", help="the paper's Sec. IV-B table (batched, resumable)")
     bench.add_argument("--tasks", default="I,II,III")
     bench.add_argument("--shapes", default="rect,tee")
     bench.add_argument("--params", default="known,unknown")
     bench.add_argument("--methods", default="mppi,mppi-ukf")
     bench.add_argument("--trials", type=_positive_int, default=30, help="seeds 0 … trials−1 (default 30)")
+    bench.add_argument("--seeds", type=_seed_list, default=None, metavar="LIST",
+                       help="run these seeds instead, e.g. 7 or 0-4,9 (re-running a seed reproduces its record)")
+    bench.add_argument("--lanes", type=_positive_int, default=BENCH_LANES,
+                       help=f"trials simulated together in one vmapped batch (default {BENCH_LANES})")
+    bench.add_argument("--no-figures", action="store_true", help="skip the per-condition trajectory figures")
     bench.add_argument("--max-steps", type=_positive_int, default=MAX_STEPS)
     bench.add_argument("--out", default="out/bench", help="output folder; re-running resumes (default out/bench)")
     bench.add_argument("--quiet", action="store_true", help="no progress output")
@@ -196,6 +221,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if getattr(args, "seeds", None) is not None:
+        args.seeds_text = ",".join(map(str, args.seeds))
     try:
         summary = args.func(args)
     except ValueError as exc:  # bad input: one clear line, no traceback

@@ -140,28 +140,30 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
     dts = jnp.asarray(settings.step_durations(), dtype=dtype)
     n_refine = round(settings.refine_fraction * K)
     k_white, k_knots = jax.random.split(key)
-    white = jax.random.normal(k_white, (K, N, 2), dtype=dtype)
+    # draw only what is used: white noise for the refining rows, knots for the exploring ones
+    refine = settings.refine_sigma * jax.random.normal(k_white, (n_refine, N, 2), dtype=dtype)
     if settings.explore_knots >= 2:  # smooth exploring noise: coherent moves over the horizon
-        knots = jax.random.normal(k_knots, (K, settings.explore_knots, 2), dtype=dtype)
+        knots = jax.random.normal(k_knots, (K - n_refine, settings.explore_knots, 2), dtype=dtype)
         basis = jnp.asarray(_hat_basis(N, settings.explore_knots), dtype=dtype)   # (N, knots)
         explore = jnp.einsum("nj,kjd->knd", basis, knots)
     else:
-        explore = white
-    refine = jnp.arange(K)[:, None, None] < n_refine
-    eps = jnp.where(refine, settings.refine_sigma * white, settings.noise_sigma * explore)
+        explore = jax.random.normal(k_knots, (K - n_refine, N, 2), dtype=dtype)
+    eps = jnp.concatenate([refine, settings.noise_sigma * explore])
     eps = eps.at[0].set(0.0)                                  # sample 0: the nominal itself
     V = jnp.clip(U[None] + eps, -settings.v_clip, settings.v_clip)   # eq. (10)
 
-    def rollout_step(x: jnp.ndarray, inp: tuple[jnp.ndarray, jnp.ndarray]):
+    def rollout_step(carry: tuple[Any, jnp.ndarray], inp: tuple[jnp.ndarray, jnp.ndarray]):
+        x, total = carry
         v, dt = inp
         x1 = dynamics(x, v, dt, params)
-        return x1, running_cost(x1, context)
+        effort = settings.control_cost * dt * jnp.sum(v * v, -1)
+        return (x1, total + running_cost(x1, context) + effort), None
 
     # the state may be any pytree (dexpush passes a tuple of scalars): give each leaf a K axis
     x = jax.tree.map(lambda leaf: jnp.broadcast_to(leaf, (K, *jnp.shape(leaf))), x0)
-    xN, run = jax.lax.scan(rollout_step, x, (jnp.swapaxes(V, 0, 1), dts))
-    effort = settings.control_cost * jnp.sum(dts[None, :] * jnp.sum(V * V, -1), -1)
-    S = jnp.sum(run, 0) + terminal_cost(xN, context) + effort
+    # costs are summed in the scan's carry: no (K, N_p) cost array is kept
+    (xN, total), _ = jax.lax.scan(rollout_step, (x, jnp.zeros(K, dtype)), (jnp.swapaxes(V, 0, 1), dts))
+    S = total + terminal_cost(xN, context)
     S_min = jnp.min(S)
     lam = settings.temperature * (jnp.median(S) - S_min) + 1e-12
     w = jax.nn.softmax(-(S - S_min) / lam)

@@ -13,6 +13,7 @@ N_max = 1500 control steps, position error < 8 mm and heading error < 3°.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -87,16 +88,21 @@ def initial_conditions(task: Task, shape: Shape, seed: int) -> tuple[np.ndarray,
     return pose, pusher
 
 
-def pose_error(object_pose: np.ndarray, goal: object) -> tuple[np.ndarray, np.ndarray]:
-    """Position error (m) and absolute heading error (deg, wrapped) against the goal."""
-    q = np.asarray(object_pose, dtype=np.float64)
-    g = np.asarray(goal, dtype=np.float64)
-    pos = np.linalg.norm(q[..., :2] - g[:2], axis=-1)
-    dth = np.angle(np.exp(1j * (q[..., 2] - g[2])))
-    return pos, np.degrees(np.abs(dth))
+def pose_error(object_pose: object, goal: object, xp: Any = np) -> tuple[Any, Any]:
+    """Position error (m) and absolute heading error (deg, wrapped) against the goal.
+
+    ``xp`` is the array module: numpy (default, float64) or ``jax.numpy`` inside jit.
+    """
+    q = xp.asarray(object_pose)
+    g = xp.asarray(goal, dtype=q.dtype)
+    if xp is np:
+        q, g = q.astype(np.float64), g.astype(np.float64)
+    pos = xp.sqrt(xp.sum((q[..., :2] - g[:2]) ** 2, axis=-1))
+    d = q[..., 2] - g[2]
+    return pos, xp.degrees(xp.abs(xp.arctan2(xp.sin(d), xp.cos(d))))
 
 
-def is_success(object_pose: np.ndarray, goal: object) -> np.ndarray:
-    """Position error < 8 mm and heading error < 3°."""
-    pos, head = pose_error(object_pose, goal)
+def is_success(object_pose: object, goal: object, xp: Any = np) -> Any:
+    """Position error < 8 mm and heading error < 3° (``xp`` as in :func:`pose_error`)."""
+    pos, head = pose_error(object_pose, goal, xp)
     return (pos < SUCCESS_POSITION_M) & (head < SUCCESS_HEADING_DEG)

@@ -42,6 +42,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -49,7 +50,8 @@ import numpy as np
 
 from dexpush.model import Contour, checked_vector, contact_gap, replay
 
-__all__ = ["UKFSettings", "UKFState", "WindowEstimator", "sigma_points", "ukf_update"]
+__all__ = ["EstimatorState", "UKFSettings", "UKFState", "WindowEstimator", "estimator_init", "estimator_observe",
+           "prior_covariance", "sigma_points", "ukf_update", "window_update"]
 
 
 @dataclass(frozen=True)
@@ -130,10 +132,15 @@ def _wrap(a: jnp.ndarray) -> jnp.ndarray:
     return jnp.arctan2(jnp.sin(a), jnp.cos(a))
 
 
-@partial(jax.jit, static_argnames=("settings", "substeps"))
-def _window_update(state: UKFState, contour: Contour, window: jnp.ndarray, dt: jnp.ndarray, mu: jnp.ndarray,
-                   settings: UKFSettings, substeps: int, prior_cov: jnp.ndarray) -> tuple[UKFState, jnp.ndarray]:
-    """UKF step on one window of observed states (M+1, 5); returns (state, updated?)."""
+def prior_covariance(settings: UKFSettings) -> jnp.ndarray:
+    """P₀ = diag(init_std)²: the prior, and the cap on every later covariance."""
+    return jnp.diag(jnp.asarray(settings.init_std, jnp.float32) ** 2)
+
+
+def window_update(state: UKFState, contour: Contour, window: jnp.ndarray, dt: jnp.ndarray, mu: jnp.ndarray,
+                  settings: UKFSettings, substeps: int) -> tuple[UKFState, jnp.ndarray]:
+    """UKF step on one window of observed states (M+1, 5); returns (state, updated?). Pure."""
+    prior_cov = prior_covariance(settings)
     x0 = window[0]
     moves = (window[1:, 3:] - window[:-1, 3:]) / dt            # recorded pusher velocities
     observed = window[1:, :3]
@@ -157,6 +164,48 @@ def _window_update(state: UKFState, contour: Contour, window: jnp.ndarray, dt: j
     return out, informative
 
 
+class EstimatorState(NamedTuple):
+    """Everything the online estimator carries between observations (a pytree)."""
+
+    filter: UKFState          #: λ mean and covariance
+    window: jnp.ndarray       #: (M+1, 5) the last observed states, oldest first
+    count: jnp.ndarray        #: consecutive observations held in ``window`` (0 … M+1)
+
+
+def estimator_init(initial: jnp.ndarray, settings: UKFSettings) -> EstimatorState:
+    """The prior: mean ``initial`` clipped into the bounds, covariance diag(init_std)², empty window."""
+    mean = jnp.clip(jnp.asarray(initial, jnp.float32), jnp.asarray(settings.lower, jnp.float32),
+                    jnp.asarray(settings.upper, jnp.float32))
+    return EstimatorState(UKFState(mean, prior_covariance(settings)),
+                          jnp.zeros((settings.window + 1, 5), jnp.float32), jnp.zeros((), jnp.int32))
+
+
+def estimator_observe(state: EstimatorState, observation: jnp.ndarray, valid: jnp.ndarray, contour: Contour,
+                      settings: UKFSettings, mu: jnp.ndarray, dt: jnp.ndarray,
+                      substeps: int) -> tuple[EstimatorState, jnp.ndarray]:
+    """Add one observed state (5,) and update λ once the window is full. Pure and jit-able.
+
+    ``valid`` False (a dropped frame, or NaN in the observation) empties the window: the
+    replay needs consecutive observations, so the next update waits for M+1 new ones.
+    Returns the new state and whether λ was updated from an informative window.
+    """
+    M1 = settings.window + 1
+    valid = valid & jnp.all(jnp.isfinite(observation))
+    window = jnp.concatenate([state.window[1:], jnp.where(valid, observation, 0.0)[None]])
+    count = jnp.where(valid, jnp.minimum(state.count + 1, M1), 0)
+    updated, informative = window_update(state.filter, contour, window, dt, mu, settings, substeps)
+    ready = count >= M1
+    filt = jax.tree.map(lambda a, b: jnp.where(ready, a, b), updated, state.filter)
+    return EstimatorState(filt, window, count), ready & informative
+
+
+@partial(jax.jit, static_argnames=("settings", "substeps"))
+def _observe_jit(state: EstimatorState, observation: jnp.ndarray, valid: jnp.ndarray, contour: Contour,
+                 settings: UKFSettings, mu: jnp.ndarray, dt: jnp.ndarray,
+                 substeps: int) -> tuple[EstimatorState, jnp.ndarray]:
+    return estimator_observe(state, observation, valid, contour, settings, mu, dt, substeps)
+
+
 class WindowEstimator:
     """Online λ estimation from the last M observations (the paper's Fig. 5, green block).
 
@@ -178,39 +227,42 @@ class WindowEstimator:
         self.settings = settings or UKFSettings()
         self.contour = contour
         self.mu, self.dt, self.substeps = float(mu), float(dt), int(substeps)
-        s = self.settings
-        init = np.clip(np.asarray(initial, np.float64), s.lower, s.upper)
-        self.prior_cov = jnp.diag(jnp.asarray(s.init_std, jnp.float32) ** 2)
-        self.state = UKFState(jnp.asarray(init, jnp.float32), self.prior_cov)
-        self._window: list[np.ndarray] = []
+        self._state = estimator_init(checked_vector("initial", initial, 3), self.settings)
         self.updates = 0
         self.skipped = 0
 
     @property
+    def state(self) -> UKFState:
+        return self._state.filter
+
+    @property
     def params(self) -> np.ndarray:
-        return np.asarray(self.state.mean, np.float64)
+        return np.asarray(self._state.filter.mean, np.float64)
 
     @property
     def std(self) -> np.ndarray:
-        return np.sqrt(np.diag(np.asarray(self.state.cov, np.float64)))
+        return np.sqrt(np.diag(np.asarray(self._state.filter.cov, np.float64)))
+
+    @property
+    def window_length(self) -> int:
+        """Consecutive observations currently held (an update needs M + 1)."""
+        return int(self._state.count)
 
     def observe(self, object_pose: object | None, pusher_xy: object | None = None) -> bool:
         """Add one observation; returns True when λ was updated from an informative window."""
-        if object_pose is None or pusher_xy is None:
-            self._window.clear()      # a gap: the replay needs consecutive observations
-            return False
-        x = np.concatenate([checked_vector("object_pose", object_pose, 3), checked_vector("pusher_xy", pusher_xy, 2)])
-        self._window.append(x)
-        M = self.settings.window
-        if len(self._window) > M + 1:
-            self._window.pop(0)
-        if len(self._window) < M + 1:
-            return False
-        window = jnp.asarray(np.stack(self._window), jnp.float32)
-        self.state, informative = _window_update(self.state, self.contour, window, jnp.float32(self.dt),
-                                                 jnp.float32(self.mu), self.settings, self.substeps, self.prior_cov)
-        if bool(informative):
-            self.updates += 1
+        valid = object_pose is not None and pusher_xy is not None
+        if valid:
+            x = np.concatenate([checked_vector("object_pose", object_pose, 3),
+                                checked_vector("pusher_xy", pusher_xy, 2)])
         else:
-            self.skipped += 1
+            x = np.zeros(5)  # a gap: the replay needs consecutive observations
+        ready = valid and int(self._state.count) + 1 >= self.settings.window + 1
+        self._state, informative = _observe_jit(self._state, jnp.asarray(x, jnp.float32), jnp.asarray(valid),
+                                                self.contour, self.settings, jnp.float32(self.mu),
+                                                jnp.float32(self.dt), self.substeps)
+        if ready:
+            if bool(informative):
+                self.updates += 1
+            else:
+                self.skipped += 1
         return bool(informative)

@@ -17,7 +17,7 @@ from dexpush.files import atomic_path
 from dexpush.geometry import Shape
 from dexpush.model import MODE_NAMES
 
-__all__ = ["animate_episode", "plot_episode", "plot_shapes", "save_figure_atomic"]
+__all__ = ["animate_episode", "plot_condition", "plot_episode", "plot_shapes", "save_figure_atomic"]
 
 MODE_COLORS = {"stick": "#e6a800", "slide_ccw": "#2ca02c", "slide_cw": "#1f77b4", "free": "#d62728"}
 
@@ -75,6 +75,31 @@ def plot_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.n
     fig.tight_layout()
     if path is not None:
         save_figure_atomic(fig, path, dpi=130)
+    return fig
+
+
+def plot_condition(shape: Shape, trajectories: list[np.ndarray], successes: list[bool], goal: np.ndarray,
+                   obstacles: np.ndarray | None = None, title: str = "",
+                   path: str | os.PathLike | None = None) -> plt.Figure:
+    """All trials of one benchmark condition: object reference paths (green: success, red:
+    failure), start and final footprints, pusher paths faint, goal and obstacles."""
+    obstacles = np.zeros((0, 3)) if obstacles is None else np.asarray(obstacles).reshape(-1, 3)
+    fig, ax = plt.subplots(figsize=(7, 5.5))
+    _setup_axes(ax, shape, np.concatenate(trajectories), np.asarray(goal), obstacles)
+    for k, (X, ok) in enumerate(zip(trajectories, successes)):
+        color = "#2ca02c" if ok else "#d62728"
+        ax.plot(X[:, 3], X[:, 4], "-", color="0.5", lw=0.4, alpha=0.35, label="pusher paths" if k == 0 else None)
+        ax.plot(X[:, 0], X[:, 1], "-", color=color, lw=1.0, alpha=0.8)
+        _draw_pose(ax, shape, X[0], fill=False, ec="#1f77b4", lw=0.6, alpha=0.5, label="starts" if k == 0 else None)
+        _draw_pose(ax, shape, X[-1], fill=True, fc=color, ec="0.2", lw=0.4, alpha=0.15)
+    ax.plot([], [], color="#2ca02c", label="object path (success)")
+    if not all(successes):
+        ax.plot([], [], color="#d62728", label="object path (failure)")
+    ax.legend(loc="best", fontsize=7, framealpha=0.8)
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    if path is not None:
+        save_figure_atomic(fig, path, dpi=110)
     return fig
 
 
