@@ -39,11 +39,25 @@ def test_demo_succeeds(tmp_path: Path) -> None:
     assert (tmp_path / "trajectory.png").exists()
 
 
+def test_physics_plant_with_a_realistic_camera_end_to_end(tmp_path: Path) -> None:
+    proc = dexpush("bench", "--plant", "physics", "--camera", "realistic", "--tasks", "I", "--shapes", "tee",
+                   "--params", "unknown", "--methods", "mppi-ukf", "--trials", "1", "--max-steps", "30",
+                   "--quiet", "--out", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr
+    rec = json.loads((tmp_path / "benchmark.json").read_text())["trials"][0]
+    assert rec["plant"] == "physics" and rec["sensor"].startswith("15 Hz") and rec["steps"] == 30
+    assert rec["object_path_m"] >= 0 and rec["planning_ms_max"] < 1000   # compile is not in the timing
+    assert (tmp_path / "figures" / "I_tee_unknown_mppi-ukf.png").exists()
+
+
 @pytest.mark.parametrize("args, message", [
     (["run", "--task", "IV"], "unknown task 'IV'"),
     (["run", "--shape", "star"], "invalid choice: 'star'"),
     (["run", "--seed", "-3"], "seed must be >= 0"),
     (["run", "--max-steps", "0"], "must be a positive integer"),
+    (["run", "--plant", "bullet"], "invalid choice: 'bullet'"),
+    (["run", "--drop", "1.5"], "drop_prob must be in [0, 1)"),
+    (["bench", "--seeds", "5-2"], "bad seed range"),
 ])
 def test_bad_arguments_give_one_clear_line(args, message, tmp_path: Path) -> None:
     proc = dexpush(*args, "--out", str(tmp_path))

@@ -19,7 +19,7 @@ import json
 import os
 import sys
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import jax.numpy as jnp
@@ -30,6 +30,7 @@ from dexpush.cost import Scene, collides
 from dexpush.files import atomic_path, write_json_atomic
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
+from dexpush.sensing import SensorSettings
 from dexpush.simulate import TrialResult, TrialSpec, simulate
 from dexpush.tasks import MAX_STEPS, Task, get_task, pose_error
 
@@ -74,6 +75,8 @@ class EpisodeRecord:
     planning_ms_max: float        #: over the lanes of the batch: median and max over its chunks
     params_estimate: list[float] | None = None
     lanes: int = 1                #: lanes of the batch it ran in (needed to reproduce it exactly)
+    plant: str = "model"          #: the world: model (C-GVMM, λ_true) or physics (MuJoCo)
+    sensor: str = "exact"         #: what the controller saw (see dexpush.sensing)
 
 
 @dataclass
@@ -104,6 +107,14 @@ def _check_condition(params: str, method: str) -> None:
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
 
 
+def _sensor_label(sensor: SensorSettings | None) -> str:
+    if sensor is None or sensor.perfect:
+        return "exact"
+    rate = f"{sensor.rate_hz:g} Hz" if sensor.rate_hz else "every step"
+    return (f"{rate}, noise {sensor.pos_std_m * 1e3:g} mm / {np.degrees(sensor.heading_std_rad):.2g}°, "
+            f"latency {sensor.latency_s * 1e3:g} ms, drops {sensor.drop_prob:.0%}")
+
+
 def trial_spec(params: str, method: str, seed: int) -> TrialSpec:
     """The :class:`TrialSpec` of one benchmark trial."""
     _check_condition(params, method)
@@ -111,7 +122,8 @@ def trial_spec(params: str, method: str, seed: int) -> TrialSpec:
 
 
 def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method: str, result: TrialResult,
-                 lanes: int, scene: Scene | None = None) -> Episode:
+                 lanes: int, scene: Scene | None = None, plant: str = "model",
+                 sensor: SensorSettings | None = None) -> Episode:
     """The record (SPEC §5) and trajectory of a finished trial."""
     scene = scene or Scene.make(shape, task.goal, task.obstacles)
     X, U = result.states, result.commands
@@ -131,18 +143,85 @@ def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method:
         collisions=int(np.sum(hits)), contact_switches=int(np.sum(in_contact[1:] != in_contact[:-1])),
         planning_ms_median=round(float(np.median(ms)), 3), planning_ms_max=round(float(np.max(ms)), 3),
         params_estimate=[round(float(v), 5) for v in result.params[-1]] if method == "mppi-ukf" and len(U) else None,
-        lanes=int(lanes))
+        lanes=int(lanes), plant=plant, sensor=_sensor_label(sensor))
     return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(task.goal),
                    np.asarray(task.obstacles).reshape(-1, 3))
+
+
+PLANTS = ("model", "physics")
+
+
+def make_plant(name: str, shape: Shape) -> object:
+    """The world of an experiment: ``model`` (C-GVMM with λ_true) or ``physics`` (MuJoCo)."""
+    from dexpush.plants import ModelPlant, PhysicsPlant
+
+    if name == "model":
+        return ModelPlant(shape)
+    if name == "physics":
+        return PhysicsPlant(shape)
+    raise ValueError(f"unknown plant {name!r}; choose one of {', '.join(PLANTS)}")
+
+
+def run_sensed_trial(task: Task, shape: Shape, spec: TrialSpec, plant: str = "physics",
+                     sensor: SensorSettings | None = None, settings: ControllerSettings | None = None,
+                     max_steps: int = MAX_STEPS, progress: bool = False) -> TrialResult:
+    """One trial the way a robot runs it: a :class:`PushingController` fed by a
+    :class:`dexpush.sensing.Camera` on a plant, stepped from Python at the control rate.
+
+    The controller only sees frames; success is judged on the plant's true state. The
+    recorded ``step_ms`` is the controller's own time per command (planning latency).
+    """
+    import time
+
+    from tqdm import tqdm
+
+    from dexpush.controller import PushingController
+    from dexpush.sensing import Camera
+    from dexpush.tasks import initial_conditions, is_success
+
+    settings = settings or ControllerSettings()
+    settings = ControllerSettings(settings.mppi, settings.weights, settings.mu, spec.estimate, settings.ukf,
+                                  settings.ukf_substeps)
+    sensor = replace(sensor or SensorSettings(), seed=(sensor.seed if sensor else 0) * 1_000_003 + spec.seed)
+    camera = Camera(make_plant(plant, shape), sensor)
+    pose, pusher = initial_conditions(task, shape, spec.seed)
+    frame = camera.reset(pose, pusher)
+    ctrl = PushingController(shape, task.goal, params=spec.params, obstacles=task.obstacles, settings=settings,
+                             seed=spec.seed)
+    T = settings.mppi.control_period
+    frame_period = 1.0 / sensor.rate_hz if sensor.rate_hz else T
+    ctrl.act(frame, frame_period)      # compile outside the timed loop (estimate, predict, plan) ...
+    ctrl.act(None, frame_period)
+    ctrl.reset()                       # ... and start afresh
+    states, commands, lam, ms = [camera.state], [], [], []
+    success = bool(is_success(camera.state[:3], task.goal))
+    bar = tqdm(total=max_steps, desc=f"task {task.key} {shape.name} ({plant})", unit="step", disable=not progress,
+               leave=False)
+    while not success and len(commands) < max_steps:
+        t0 = time.perf_counter()
+        u = ctrl.act(frame, frame_period)
+        ms.append((time.perf_counter() - t0) * 1e3)
+        lam.append(ctrl.params)
+        frame = camera.step(u, T)
+        commands.append(u)
+        states.append(camera.state)
+        success = bool(is_success(camera.state[:3], task.goal))
+        bar.update(1)
+    bar.close()
+    return TrialResult(spec, success, np.asarray(states), np.asarray(commands).reshape(-1, 2),
+                       np.asarray(lam).reshape(-1, 3), np.asarray(ms))
 
 
 def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str = "known",
                 method: str = "mppi", seed: int = 0, max_steps: int = MAX_STEPS,
                 settings: ControllerSettings | None = None, progress: bool = False, lanes: int = 1,
-                chunk: int = 25) -> Episode:
-    """Run one closed-loop trial on the model plant (SPEC §5) and record it.
+                chunk: int = 25, plant: str = "model", sensor: SensorSettings | None = None) -> Episode:
+    """Run one closed-loop trial (SPEC §5) and record it.
 
-    ``lanes`` = :data:`BENCH_LANES` reproduces the benchmark's record of this seed exactly.
+    On the model plant with a perfect sensor it runs in :func:`dexpush.simulate.simulate`
+    (``lanes`` = :data:`BENCH_LANES` reproduces the benchmark's record of this seed
+    exactly); on the physics plant, or with a realistic ``sensor``, in
+    :func:`run_sensed_trial`.
     """
     task = get_task(task)
     shape_name = shape if isinstance(shape, str) else shape.name
@@ -150,9 +229,15 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
     spec = trial_spec(params, method, seed)
     if max_steps < 1:
         raise ValueError(f"max_steps must be >= 1, got {max_steps}")
-    result = simulate(task, shape, [spec], settings, max_steps=max_steps, lanes=lanes, chunk=chunk,
-                      progress=progress, desc=f"task {task.key} {shape_name}")[0]
-    return make_episode(task, shape_name, shape, params, method, result, lanes)
+    if plant not in PLANTS:
+        raise ValueError(f"unknown plant {plant!r}; choose one of {', '.join(PLANTS)}")
+    if plant == "model" and (sensor is None or sensor.perfect):
+        result = simulate(task, shape, [spec], settings, max_steps=max_steps, lanes=lanes, chunk=chunk,
+                          progress=progress, desc=f"task {task.key} {shape_name}")[0]
+        return make_episode(task, shape_name, shape, params, method, result, lanes)
+    result = run_sensed_trial(task, shape, spec, plant, sensor, settings, max_steps, progress)
+    return make_episode(task, shape_name, shape, params, method, result, 1, plant=plant,
+                        sensor=sensor or SensorSettings())
 
 
 # ---------------------------------------------------------------------------- the §5 table
@@ -175,62 +260,105 @@ def _load_condition(path: Path) -> dict[int, dict]:
 def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence[str], params: Sequence[str],
                   methods: Sequence[str], seeds: Sequence[int], max_steps: int = MAX_STEPS,
                   lanes: int = BENCH_LANES, settings: ControllerSettings | None = None,
-                  progress: bool = True, figures: bool = True) -> list[dict]:
+                  progress: bool = True, figures: bool = True, workers: int = 1, plant: str = "model",
+                  sensor: SensorSettings | None = None) -> list[dict]:
     """Run the trials of every condition (task × shape × params × method), resumably.
 
     Each condition has its file ``out/conditions/<task>_<shape>_<params>_<method>.json``,
     rewritten atomically as each of its trials ends; trials already recorded there are
-    not run again. The trials of all conditions of one task and shape share one queue of
-    ``lanes`` (see :func:`dexpush.simulate.simulate`). With ``figures`` each condition's
-    trajectories go to ``out/trajectories/<condition>.npz`` and a figure
-    ``out/figures/<condition>.png``. Returns the records in condition, then seed, order.
+    not run again. On the model plant with an exact sensor the trials of all conditions of
+    one task and shape share one queue of ``lanes`` (:func:`dexpush.simulate.simulate`);
+    otherwise (``plant="physics"`` or a realistic ``sensor``) trials run one by one through
+    :func:`run_sensed_trial`. ``workers`` > 1 runs the (task, shape) groups in that many
+    processes (XLA runs a scanned loop on one thread, so a 2-core machine needs 2). With
+    ``figures`` each condition's trajectories go to ``out/trajectories/<condition>.npz``
+    and a figure ``out/figures/<condition>.png``. Returns the records in condition, then
+    seed, order.
     """
-    from dexpush.viz import plot_condition
-
     out = Path(out)
-    tasks = [get_task(t) for t in tasks]
+    task_keys = [get_task(t).key for t in tasks]
     for p in params:
         for m in methods:
             _check_condition(p, m)
+    for sh in shapes:
+        make_shape(sh)
+    if plant not in PLANTS:
+        raise ValueError(f"unknown plant {plant!r}; choose one of {', '.join(PLANTS)}")
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
     seeds = sorted({int(s) for s in seeds})
-    records: dict[str, dict[int, dict]] = {}
-    for task in tasks:
-        for shape_name in shapes:
-            shape = make_shape(shape_name)
-            scene = Scene.make(shape, task.goal, task.obstacles)
-            names = {(p, m): condition_name(task.key, shape_name, p, m) for p in params for m in methods}
-            todo: list[tuple[str, str]] = []
-            specs: list[TrialSpec] = []
-            for (p, m), name in names.items():
-                records[name] = _load_condition(out / "conditions" / f"{name}.json")
-                for s in seeds:
-                    if s not in records[name]:
-                        todo.append((p, m))
-                        specs.append(trial_spec(p, m, s))
-            paths: dict[str, dict[int, np.ndarray]] = {name: {} for name in names.values()}
-            owner = {id(spec): pm for spec, pm in zip(specs, todo)}
+    groups = [(t, sh) for t in task_keys for sh in shapes]
+    common = dict(params=tuple(params), methods=tuple(methods), seeds=tuple(seeds), max_steps=max_steps,
+                  lanes=lanes, settings=settings, progress=progress, figures=figures, plant=plant, sensor=sensor)
+    if workers == 1 or len(groups) == 1:
+        for t, sh in groups:
+            _run_group(out, t, sh, **common)
+    else:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
 
-            def save(result: TrialResult, task: Task = task, shape_name: str = shape_name, shape: Shape = shape,
-                     scene: Scene = scene, names: dict = names, paths: dict = paths, owner: dict = owner) -> None:
-                p, m = owner[id(result.spec)]
-                name = names[(p, m)]
-                ep = make_episode(task, shape_name, shape, p, m, result, lanes, scene)
-                records[name][result.spec.seed] = ep.summary()
-                write_json_atomic(out / "conditions" / f"{name}.json",
-                                  {"trials": [records[name][s] for s in sorted(records[name])]})
-                paths[name][result.spec.seed] = result.states.astype(np.float32)
-
-            if specs:
-                if progress:
-                    print(f"task {task.key}, {shape_name}: {len(specs)} trials in {lanes} lanes", file=sys.stderr,
-                          flush=True)
-                simulate(task, shape, specs, settings, max_steps=max_steps, lanes=lanes, on_result=save,
-                         progress=progress, desc=f"task {task.key} {shape_name}")
-            if figures:
-                for name, new in paths.items():
-                    _save_trajectories(out, name, new, shape, task, records[name], plot_condition)
-    order = [condition_name(t.key, sh, p, m) for t in tasks for sh in shapes for p in params for m in methods]
+        # one XLA thread per worker process: the workers are the parallelism
+        saved = os.environ.get("XLA_FLAGS")
+        os.environ["XLA_FLAGS"] = f"{saved or ''} --xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+        try:
+            with ProcessPoolExecutor(min(workers, len(groups)), mp_context=multiprocessing.get_context("spawn")) as ex:
+                futures = [ex.submit(_run_group, out, t, sh, **common, position=i % workers)
+                           for i, (t, sh) in enumerate(groups)]
+                for f in futures:
+                    f.result()
+        finally:
+            if saved is None:
+                os.environ.pop("XLA_FLAGS", None)
+            else:
+                os.environ["XLA_FLAGS"] = saved
+    order = [condition_name(t, sh, p, m) for t in task_keys for sh in shapes for p in params for m in methods]
+    records = {name: _load_condition(out / "conditions" / f"{name}.json") for name in order}
     return [records[name][s] for name in order for s in seeds]
+
+
+def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, ...], methods: tuple[str, ...],
+               seeds: tuple[int, ...], max_steps: int, lanes: int, settings: ControllerSettings | None,
+               progress: bool, figures: bool, plant: str, sensor: SensorSettings | None, position: int = 0) -> None:
+    """The conditions of one task and shape (see :func:`run_benchmark`)."""
+    from dexpush.viz import plot_condition
+
+    task, shape = get_task(task_key), make_shape(shape_name)
+    scene = Scene.make(shape, task.goal, task.obstacles)
+    batched = plant == "model" and (sensor is None or sensor.perfect)
+    names = {(p, m): condition_name(task.key, shape_name, p, m) for p in params for m in methods}
+    records: dict[str, dict[int, dict]] = {}
+    specs: list[tuple[TrialSpec, str, str]] = []
+    for (p, m), name in names.items():
+        records[name] = _load_condition(out / "conditions" / f"{name}.json")
+        specs += [(trial_spec(p, m, s), p, m) for s in seeds if s not in records[name]]
+    paths: dict[str, dict[int, np.ndarray]] = {name: {} for name in names.values()}
+    owner = {id(spec): (p, m) for spec, p, m in specs}
+
+    def save(result: TrialResult) -> None:
+        p, m = owner[id(result.spec)]
+        name = names[(p, m)]
+        ep = make_episode(task, shape_name, shape, p, m, result, lanes if batched else 1, scene, plant=plant,
+                          sensor=sensor)
+        records[name][result.spec.seed] = ep.summary()
+        write_json_atomic(out / "conditions" / f"{name}.json",
+                          {"trials": [records[name][s] for s in sorted(records[name])]})
+        paths[name][result.spec.seed] = result.states.astype(np.float32)
+
+    desc = f"task {task.key} {shape_name}"
+    if specs and batched:
+        if progress:
+            print(f"{desc}: {len(specs)} trials in {lanes} lanes", file=sys.stderr, flush=True)
+        simulate(task, shape, [sp for sp, _, _ in specs], settings, max_steps=max_steps, lanes=lanes,
+                 on_result=save, progress=progress, desc=desc)
+    elif specs:
+        from tqdm import tqdm
+
+        for spec, _, _ in tqdm(specs, desc=f"{desc} ({plant})", unit="trial", disable=not progress,
+                               position=position, leave=False):
+            save(run_sensed_trial(task, shape, spec, plant, sensor, settings, max_steps))
+    if figures:
+        for name, new in paths.items():
+            _save_trajectories(out, name, new, shape, task, records[name], plot_condition)
 
 
 def _save_trajectories(out: Path, name: str, new: dict[int, np.ndarray], shape: Shape, task: Task,

@@ -19,7 +19,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from dexpush.benchmark import BENCH_LANES, METHODS, PARAMS, SHAPES
+from dexpush.benchmark import BENCH_LANES, METHODS, PARAMS, PLANTS, SHAPES
 from dexpush.tasks import MAX_STEPS
 
 __all__ = ["main"]
@@ -64,7 +64,8 @@ def _cmd_run(args: argparse.Namespace) -> dict:
     shape = make_shape(args.shape)
     settings = ControllerSettings(mppi=MPPISettings(num_samples=args.samples))
     episode = run_episode(args.task, shape, params=args.params, method=args.method, seed=args.seed,
-                          max_steps=args.max_steps, settings=settings, progress=not args.quiet, lanes=args.lanes)
+                          max_steps=args.max_steps, settings=settings, progress=not args.quiet, lanes=args.lanes,
+                          plant=args.plant, sensor=_sensor(args))
     out = Path(args.out)
     files = _episode_files(episode, shape, out, animation=not args.no_animation)
     summary = episode.summary()
@@ -115,6 +116,25 @@ def _seed_list(text: str) -> list[int]:
     return sorted(seeds)
 
 
+def _sensor(args: argparse.Namespace):
+    from dexpush.sensing import SensorSettings
+
+    if args.camera == "realistic":
+        return SensorSettings.realistic()
+    import math
+
+    return SensorSettings(pos_std_m=args.noise_mm / 1e3, heading_std_rad=math.radians(args.noise_deg),
+                          rate_hz=args.camera_hz, latency_s=args.latency_ms / 1e3, drop_prob=args.drop)
+
+
+def _sensor_text(args: argparse.Namespace) -> str:
+    if args.camera == "realistic":
+        return " --camera realistic"
+    parts = [f" --{name.replace('_', '-')} {getattr(args, name)}"
+             for name in ("noise_mm", "noise_deg", "camera_hz", "latency_ms", "drop") if getattr(args, name)]
+    return "".join(parts)
+
+
 def _cmd_bench(args: argparse.Namespace) -> dict:
     import datetime
     import platform
@@ -132,11 +152,13 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
     seeds = args.seeds if args.seeds is not None else list(range(args.trials))
     t0 = time.perf_counter()
     records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
-                            lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures)
+                            lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures,
+                            workers=args.workers, plant=args.plant, sensor=_sensor(args))
     wall = time.perf_counter() - t0
     seed_text = f"--seeds {args.seeds_text}" if args.seeds is not None else f"--trials {args.trials}"
     meta = {"command": f"dexpush bench --tasks {args.tasks} --shapes {args.shapes} --params {args.params} "
-                       f"--methods {args.methods} {seed_text} --lanes {args.lanes} --out {args.out}",
+                       f"--methods {args.methods} {seed_text} --lanes {args.lanes} --plant {args.plant}"
+                       f"{_sensor_text(args)} --workers {args.workers} --out {args.out}",
             "date": datetime.date.today().isoformat(),
             "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.python_implementation()} "
                        f"{platform.python_version()}",
@@ -168,6 +190,16 @@ def build_parser() -> argparse.ArgumentParser:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True)
 
+    def sensor_args(sp: argparse.ArgumentParser) -> None:
+        g = sp.add_argument_group("sensing (what the controller sees; default: exact state every step)")
+        g.add_argument("--camera", choices=["exact", "realistic"], default="exact",
+                       help="realistic: 15 Hz, 1 mm / 0.5° noise, 60 ms latency, 5%% dropped frames")
+        g.add_argument("--noise-mm", type=float, default=0.0, help="object position noise σ (mm)")
+        g.add_argument("--noise-deg", type=float, default=0.0, help="object heading noise σ (deg)")
+        g.add_argument("--camera-hz", type=float, default=None, help="camera rate (default: every control step)")
+        g.add_argument("--latency-ms", type=float, default=0.0, help="capture-to-controller delay (ms)")
+        g.add_argument("--drop", type=float, default=0.0, help="probability of a lost frame")
+
     def episode_args(sp: argparse.ArgumentParser, out: str) -> None:
         sp.add_argument("--out", default=out, help=f"output folder (default {out})")
         sp.add_argument("--max-steps", type=_positive_int, default=MAX_STEPS,
@@ -178,7 +210,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     demo = sub.add_parser("demo", help="closed-loop demo: Task I, rect, known parameters, MPPI")
     episode_args(demo, "out/demo")
-    demo.set_defaults(task="I", shape="rect", params="known", method="mppi", seed=0, lanes=1, func=_cmd_run)
+    demo.set_defaults(task="I", shape="rect", params="known", method="mppi", seed=0, lanes=1, plant="model",
+                      camera="exact", noise_mm=0.0, noise_deg=0.0, camera_hz=None, latency_ms=0.0, drop=0.0,
+                      func=_cmd_run)
 
     run = sub.add_parser("run", help="one episode of a benchmark task")
     run.add_argument("--task", default="I", help="I, II or III (default I)")
@@ -188,9 +222,11 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--method", default="mppi", choices=METHODS,
                      help="MPPI with fixed λ_pred, or with the UKF estimating λ online")
     run.add_argument("--seed", type=_seed, default=0)
-    run.add_argument("--plant", default="model", choices=["model"], help="the world (default model)")
+    run.add_argument("--plant", default="model", choices=PLANTS,
+                     help="the world: model (C-GVMM, λ_true) or physics (MuJoCo) (default model)")
     run.add_argument("--lanes", type=_positive_int, default=1,
                      help="batch lanes of the simulation (default 1); 32 reproduces a `dexpush bench` record exactly")
+    sensor_args(run)
     episode_args(run, "out/run")
     run.set_defaults(func=_cmd_run)
 
@@ -205,6 +241,11 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--lanes", type=_positive_int, default=BENCH_LANES,
                        help=f"trials simulated together in one vmapped batch (default {BENCH_LANES})")
     bench.add_argument("--no-figures", action="store_true", help="skip the per-condition trajectory figures")
+    bench.add_argument("--workers", type=_positive_int, default=1,
+                       help="processes, one (task, shape) group each (default 1; use the core count)")
+    bench.add_argument("--plant", default="model", choices=PLANTS,
+                       help="model: batched C-GVMM world; physics: MuJoCo, trials one by one (default model)")
+    sensor_args(bench)
     bench.add_argument("--max-steps", type=_positive_int, default=MAX_STEPS)
     bench.add_argument("--out", default="out/bench", help="output folder; re-running resumes (default out/bench)")
     bench.add_argument("--quiet", action="store_true", help="no progress output")

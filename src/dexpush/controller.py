@@ -29,11 +29,13 @@ import numpy as np
 
 from dexpush.cost import CostWeights, Scene, running_cost, terminal_cost
 from dexpush.geometry import Shape
-from dexpush.model import LAMBDA_TRUE, Contour, check_params, checked_vector, step
+from dexpush.model import LAMBDA_TRUE, Contour, check_params, checked_vector, integrate, step
 from dexpush.mppi import MPPIResult, MPPISettings, mppi_iteration, shift_in_time
+from dexpush.plants import Observation
 from dexpush.ukf import EstimatorState, UKFSettings, estimator_init, estimator_observe
 
-__all__ = ["ControllerSettings", "ControllerState", "PushingController", "policy_init", "policy_step"]
+__all__ = ["ControllerSettings", "ControllerState", "PushingController", "estimate_step", "plan_step", "policy_init",
+           "policy_step"]
 
 
 @dataclass(frozen=True)
@@ -64,47 +66,77 @@ def policy_init(params: object, settings: ControllerSettings, seed: int | jnp.nd
                            estimator_init(lam, settings.ukf))
 
 
-def policy_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray | bool, *,
-                contour: Contour, scene: Scene,
-                settings: ControllerSettings) -> tuple[ControllerState, jnp.ndarray, MPPIResult]:
-    """One control period (paper Fig. 5). Pure and jit-able; ``observation`` = [x_b, y_b, θ, x_c, y_c].
+def estimate_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray | bool, *,
+                  contour: Contour, settings: ControllerSettings,
+                  frame_period: float | None = None) -> ControllerState:
+    """With ``estimate``: the observation enters the UKF window and an informative full
+    window updates λ_pred (:func:`dexpush.ukf.estimator_observe`). Pure and jit-able.
 
-    1. with ``estimate``: the observation enters the UKF window; an informative full
-       window updates λ_pred (:func:`dexpush.ukf.estimator_observe`);
-    2. one MPPI iteration (eq. 9–10) from the observed state with λ_pred;
-    3. the command is the first input of the new sequence, clipped to ±v_max/√2 (zero,
-       and a reset sequence, should it ever be non-finite); the sequence is shifted by the
-       control period as the next warm start.
+    ``frame_period`` is the time between observations (default: the control period).
     """
-    mp = settings.mppi
-    period = jnp.float32(mp.control_period)
     obs = jnp.asarray(observation, jnp.float32)
+    dt = jnp.float32(frame_period or settings.mppi.control_period)
 
     def observe(s: ControllerState) -> tuple[EstimatorState, jnp.ndarray]:
         est, _ = estimator_observe(s.estimator, obs, jnp.bool_(True), contour, settings.ukf,
-                                   jnp.float32(settings.mu), period, settings.ukf_substeps)
+                                   jnp.float32(settings.mu), dt, settings.ukf_substeps)
         return est, est.filter.mean
 
     # (under vmap with a per-trial flag this becomes a select: both branches run)
     est, lam = jax.lax.cond(jnp.asarray(estimate), observe, lambda s: (s.estimator, s.params), state)
+    return state._replace(estimator=est, params=lam)
+
+
+def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene: Scene,
+              settings: ControllerSettings) -> tuple[ControllerState, jnp.ndarray, MPPIResult]:
+    """One MPPI iteration (eq. 9–10) from state ``x`` with λ_pred. Pure and jit-able.
+
+    The command is the first input of the new sequence, clipped to ±v_max/√2 (zero, and a
+    reset sequence, should it ever be non-finite); the sequence is shifted by the control
+    period as the next warm start.
+    """
+    mp = settings.mppi
+    x = jnp.asarray(x, jnp.float32)
     key, sub = jax.random.split(state.key)
     weights, mu = settings.weights, jnp.float32(settings.mu)
     result = mppi_iteration(
-        sub, state.sequence, tuple(obs[i] for i in range(5)), lam, scene,   # rollouts carry a tuple
-        dynamics=lambda x, u, dt, p: step(contour, x, u, dt, p, mu),
-        running_cost=lambda x, sc: running_cost(x, sc, weights),
-        terminal_cost=lambda x, sc: terminal_cost(x, sc, weights), settings=mp)
+        sub, state.sequence, tuple(x[i] for i in range(5)), state.params, scene,   # rollouts carry a tuple
+        dynamics=lambda xs, u, dt, p: step(contour, xs, u, dt, p, mu),
+        running_cost=lambda xs, sc: running_cost(xs, sc, weights),
+        terminal_cost=lambda xs, sc: terminal_cost(xs, sc, weights), settings=mp)
     finite = jnp.all(jnp.isfinite(result.sequence))
     u = jnp.where(finite, jnp.clip(result.sequence[0], -mp.v_clip, mp.v_clip), 0.0)
     durations = jnp.asarray(mp.step_durations(), jnp.float32)
     shifted = jnp.where(finite, shift_in_time(result.sequence, durations, mp.control_period), 0.0)
-    return ControllerState(shifted, key, lam, est), u, result
+    return state._replace(sequence=shifted, key=key), u, result
+
+
+def policy_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray | bool, *,
+                contour: Contour, scene: Scene,
+                settings: ControllerSettings) -> tuple[ControllerState, jnp.ndarray, MPPIResult]:
+    """One control period on a fresh, exact observation [x_b, y_b, θ, x_c, y_c] (paper Fig. 5):
+    :func:`estimate_step`, then :func:`plan_step` from the observed state. Pure and jit-able."""
+    state = estimate_step(state, observation, estimate, contour=contour, settings=settings)
+    return plan_step(state, observation, contour=contour, scene=scene, settings=settings)
+
+
+@partial(jax.jit, static_argnames=("settings", "frame_period"))
+def _estimate_jit(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray, contour: Contour,
+                  settings: ControllerSettings, frame_period: float | None) -> ControllerState:
+    return estimate_step(state, observation, estimate, contour=contour, settings=settings,
+                         frame_period=frame_period)
 
 
 @partial(jax.jit, static_argnames="settings")
-def _policy_jit(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray, contour: Contour,
-                scene: Scene, settings: ControllerSettings) -> tuple[ControllerState, jnp.ndarray, MPPIResult]:
-    return policy_step(state, observation, estimate, contour=contour, scene=scene, settings=settings)
+def _plan_jit(state: ControllerState, x: jnp.ndarray, contour: Contour, scene: Scene,
+              settings: ControllerSettings) -> tuple[ControllerState, jnp.ndarray, MPPIResult]:
+    return plan_step(state, x, contour=contour, scene=scene, settings=settings)
+
+
+@partial(jax.jit, static_argnames="substeps")
+def _predict_jit(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, duration: jnp.ndarray, params: jnp.ndarray,
+                 mu: jnp.ndarray, substeps: int) -> jnp.ndarray:
+    return integrate(contour, x, u, duration, params, mu, substeps)
 
 
 class PushingController:
@@ -161,13 +193,60 @@ class PushingController:
             self._seed = int(seed)
         self.state = policy_init(self._initial_params, self.settings, self._seed)
         self.last: MPPIResult | None = None
+        self._clock = 0.0                                  # start of the next control period (s)
+        self._history: list[tuple[float, np.ndarray]] = []  # (issue time, command)
+        self._predicted: jnp.ndarray | None = None
 
     def command(self, object_pose: object, pusher_xy: object) -> np.ndarray:
-        """Pusher velocity (v_x, v_y) in m/s for the observed object pose and pusher position."""
+        """Pusher velocity (v_x, v_y) in m/s for an exact, current observation."""
         q = checked_vector("object_pose", object_pose, 3)
         p = checked_vector("pusher_xy", pusher_xy, 2)
         obs = jnp.asarray(np.concatenate([q, p]), jnp.float32)
-        self.state, u, self.last = _policy_jit(self.state, obs, jnp.asarray(self.settings.estimate_params),
-                                               self.contour, self.scene, self.settings)
+        st = _estimate_jit(self.state, obs, jnp.asarray(self.settings.estimate_params), self.contour,
+                           self.settings, None)
+        self.state, u, self.last = _plan_jit(st, obs, self.contour, self.scene, self.settings)
+        return self._issue(u, obs)
+
+    def act(self, frame: Observation | None, frame_period: float | None = None) -> np.ndarray:
+        """Pusher velocity for the next control period from what the sensor delivered, if anything.
+
+        ``frame`` is the newest frame that arrived during the last period (``None`` when
+        none did: a slow camera or a dropped frame); ``frame.time`` is its capture time on
+        the clock that started at :meth:`reset` (time 0), advancing one control period per
+        call. The controller
+
+        * updates the UKF only from frames (``frame_period``: the camera's period, used by
+          the window replay);
+        * predicts the state at the present from the newest frame by replaying the
+          commands issued since its capture through the C-GVMM with λ_pred (latency), or,
+          without a new frame, one more period from its last prediction (hold and predict);
+        * plans from that predicted state.
+        """
+        T = self.settings.mppi.control_period
+        if frame is not None:
+            q = checked_vector("object_pose", frame.object_pose, 3)
+            p = checked_vector("pusher_xy", frame.pusher_xy, 2)
+            obs = jnp.asarray(np.concatenate([q, p]), jnp.float32)
+            self.state = _estimate_jit(self.state, obs, jnp.asarray(self.settings.estimate_params), self.contour,
+                                       self.settings, frame_period)
+            x, since = obs, float(frame.time)
+            segments = [(max(t0, since), t0 + T, u) for t0, u in self._history if t0 + T > since]
+        elif self._predicted is not None:
+            x, segments = self._predicted, ([(0.0, T, self._history[-1][1])] if self._history else [])
+        else:
+            raise ValueError("the first call of act() needs a frame (the reset observation)")
+        lam, mu = self.state.params, jnp.float32(self.settings.mu)
+        for t0, t1, u in segments:
+            if t1 - t0 > 1e-9:
+                x = _predict_jit(self.contour, x, jnp.asarray(u, jnp.float32), jnp.float32(t1 - t0), lam, mu, 10)
+        self.state, u, self.last = _plan_jit(self.state, x, self.contour, self.scene, self.settings)
+        return self._issue(u, x)
+
+    def _issue(self, u: jnp.ndarray, x: jnp.ndarray) -> np.ndarray:
         c = self.settings.mppi.v_clip     # float32 rounding may sit a hair past the float64 bound
-        return np.clip(np.asarray(u, dtype=np.float64), -c, c)
+        cmd = np.clip(np.asarray(u, dtype=np.float64), -c, c)
+        self._predicted = x
+        self._history.append((self._clock, cmd))
+        self._history = self._history[-16:]   # enough to bridge 0.6 s of latency and lost frames
+        self._clock += self.settings.mppi.control_period
+        return cmd

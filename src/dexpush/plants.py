@@ -119,3 +119,184 @@ class ModelPlant:
         self.max_penetration = max(self.max_penetration, float(-np.min(gap)))
         self.time += dt
         return self.observe()
+
+
+# ---------------------------------------------------------------------------- physics plant
+@dataclass(frozen=True)
+class PhysicsSettings:
+    """The MuJoCo scene of :class:`PhysicsPlant` (SPEC §3), with the reason for each value."""
+
+    mass: float = 0.5                 #: slider mass (kg)
+    height: float = 0.02              #: slider height (m); the pusher touches its side at half height
+    table_friction: float = 0.4       #: slider–table Coulomb friction
+    pusher_friction: float = 0.25     #: pusher–slider Coulomb friction (μ_c of the world)
+    timestep: float = 0.002           #: physics step (s): 0.2 mm of pusher travel at 0.1 m/s
+    support_spacing: float = 0.01     #: grid of support points under the footprint (m): a uniform
+                                      #: pressure distribution, whatever the shape (see PhysicsPlant)
+    support_radius: float = 0.002     #: radius of each support sphere (m)
+    solref: tuple[float, float] = (0.004, 1.0)   #: contact time constant 2·timestep, critically damped
+    impratio: float = 10.0            #: stiffer frictional constraints: less creep at rest
+
+    def __post_init__(self) -> None:
+        for name in ("mass", "height", "table_friction", "pusher_friction", "timestep", "support_spacing",
+                     "support_radius", "impratio"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be > 0, got {v!r}")
+
+
+def _support_points(shape: Shape, spacing: float) -> np.ndarray:
+    """Grid points inside the footprint (body frame), at least one per polygon."""
+    from matplotlib.path import Path as MplPath
+
+    pts = []
+    for poly in shape.polygons:
+        lo, hi = poly.min(0), poly.max(0)
+        nx, ny = (np.maximum(np.round((hi - lo) / spacing), 1)).astype(int)
+        gx = lo[0] + (np.arange(nx) + 0.5) * (hi[0] - lo[0]) / nx
+        gy = lo[1] + (np.arange(ny) + 0.5) * (hi[1] - lo[1]) / ny
+        grid = np.stack(np.meshgrid(gx, gy), -1).reshape(-1, 2)
+        inside = grid[MplPath(poly).contains_points(grid)]
+        pts.append(inside if len(inside) else poly.mean(0)[None])
+    pts = np.concatenate(pts)
+    # pieces of a union may overlap: keep one point per grid cell
+    return np.unique(np.round(pts / (spacing / 4)) * (spacing / 4), axis=0)
+
+
+def _inertia(points: np.ndarray, mass: float, height: float) -> tuple[np.ndarray, np.ndarray]:
+    """Centre of mass and diagonal inertia of a uniform prism sampled by its support points."""
+    com = points.mean(0)
+    d = points - com
+    izz = mass * np.mean(np.sum(d * d, 1))
+    ixx = mass * (np.mean(d[:, 1] ** 2) + height**2 / 12)
+    iyy = mass * (np.mean(d[:, 0] ** 2) + height**2 / 12)
+    return com, np.array([ixx, iyy, izz])
+
+
+def scene_xml(shape: Shape, settings: PhysicsSettings) -> str:
+    """MJCF of table, slider and pusher, built from the shape (one convex prism per polygon).
+
+    Contact groups (contype/conaffinity bits) keep the three kinds of contact apart: the
+    table touches only the slider's support spheres (friction ``table_friction``), the
+    pusher touches only the slider's side prisms (``pusher_friction``), and nothing else
+    collides. The support spheres spread the slider's weight evenly over its footprint, so
+    the friction load follows the footprint (a box on a plane would carry it on 4 corners).
+    The slider has a free joint: locking roll and pitch would let the table's normal forces
+    absorb the tipping moment unevenly and distort that pressure distribution.
+    """
+    s = settings
+    h = s.height
+    points = _support_points(shape, s.support_spacing)
+    com, inertia = _inertia(points, s.mass, h)
+    meshes, sides = [], []
+    for i, poly in enumerate(shape.polygons):
+        verts = " ".join(f"{x:.6f} {y:.6f} {z:.6f}" for z in (-h / 2, h / 2) for x, y in poly)
+        meshes.append(f'<mesh name="piece{i}" vertex="{verts}"/>')
+        sides.append(f'<geom type="mesh" mesh="piece{i}" pos="0 0 {h / 2 + s.support_radius:.6f}" contype="4" '
+                     f'conaffinity="8" friction="{s.pusher_friction} 0.005 0.0001" rgba="0.6 0.6 0.65 1" '
+                     f'mass="0"/>')
+    supports = [f'<geom type="sphere" size="{s.support_radius}" pos="{x:.6f} {y:.6f} {s.support_radius:.6f}" '
+                f'contype="2" conaffinity="1" friction="{s.table_friction} 0.005 0.0001" mass="0" '
+                f'rgba="0.3 0.3 0.3 1"/>' for x, y in points]
+    rho = shape.pusher_radius
+    solref = f"{s.solref[0]} {s.solref[1]}"
+    return f"""<mujoco model="dexpush">
+  <option timestep="{s.timestep}" integrator="implicitfast" cone="elliptic" impratio="{s.impratio}"/>
+  <default><geom solref="{solref}" solimp="0.95 0.99 0.001"/></default>
+  <asset>{''.join(meshes)}</asset>
+  <worldbody>
+    <geom name="table" type="plane" size="2 2 0.1" contype="1" conaffinity="2"
+          friction="{s.table_friction} 0.005 0.0001" rgba="0.9 0.9 0.9 1"/>
+    <body name="slider" pos="0 0 0">
+      <freejoint name="slider"/>
+      <inertial pos="{com[0]:.6f} {com[1]:.6f} {h / 2 + s.support_radius:.6f}" mass="{s.mass}"
+                diaginertia="{inertia[0]:.8f} {inertia[1]:.8f} {inertia[2]:.8f}"/>
+      {''.join(sides)}
+      {''.join(supports)}
+    </body>
+    <body name="pusher" mocap="true" pos="0 0 {h / 2 + s.support_radius:.6f}">
+      <geom type="cylinder" size="{rho} {h}" contype="8" conaffinity="4"
+            friction="{s.pusher_friction} 0.005 0.0001" rgba="0.1 0.7 0.8 1"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+
+
+class PhysicsPlant:
+    """A MuJoCo world standing in for the real robot (SPEC §3 "physics plant").
+
+    The slider is a rigid body on a table with Coulomb friction, pushed by a kinematic
+    (mocap) cylinder that follows the commanded velocity exactly, as a stiff
+    position-controlled robot arm would. Nothing here uses the C-GVMM: the motion comes
+    from MuJoCo's contact dynamics, so the controller meets a world that is not its model.
+    Same interface as :class:`ModelPlant` (one scene, not a batch).
+
+    Args:
+        shape: the slider's footprint (each polygon becomes a convex prism).
+        settings: :class:`PhysicsSettings`.
+    """
+
+    def __init__(self, shape: Shape, settings: PhysicsSettings | None = None) -> None:
+        import mujoco
+
+        self._mj = mujoco
+        self.shape = shape
+        self.settings = settings or PhysicsSettings()
+        self.model = mujoco.MjModel.from_xml_string(scene_xml(shape, self.settings))
+        self.data = mujoco.MjData(self.model)
+        self._qadr = self.model.jnt_qposadr[self.model.joint("slider").id]
+        self._z = self.settings.height / 2 + self.settings.support_radius
+        self.time = 0.0
+        self._ready = False
+        self.max_penetration = 0.0
+
+    @property
+    def state(self) -> np.ndarray:
+        """The true [x_b, y_b, θ, x_c, y_c] (the controller should not read this)."""
+        if not self._ready:
+            raise RuntimeError("call reset() before using the plant")
+        q = self.data.qpos[self._qadr:self._qadr + 7]
+        w, x, y, z = q[3:7]
+        theta = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        return np.array([q[0], q[1], theta, *self.data.mocap_pos[0, :2]])
+
+    def observe(self) -> Observation:
+        x = self.state
+        return Observation(x[:3], x[3:], self.time)
+
+    def reset(self, object_pose: object, pusher_xy: object) -> Observation:
+        """Place the slider (at rest) and the pusher; the pusher must not start inside it."""
+        q = checked_vector("object_pose", object_pose, 3)
+        p = checked_vector("pusher_xy", pusher_xy, 2)
+        contour = Contour.of(self.shape)
+        if float(contact_gap(contour, jnp.asarray(np.concatenate([q, p])))) < -1e-3:
+            raise ValueError("pusher starts inside the object; place it on or outside the pusher-inflated contour")
+        mj = self._mj
+        mj.mj_resetData(self.model, self.data)
+        self.data.qpos[self._qadr:self._qadr + 7] = [q[0], q[1], 0.0, np.cos(q[2] / 2), 0, 0, np.sin(q[2] / 2)]
+        self.data.mocap_pos[0] = [p[0], p[1], self._z]
+        mj.mj_forward(self.model, self.data)
+        self.time = self._target = 0.0
+        self._steps = 0
+        self.max_penetration = 0.0
+        self._ready = True
+        return self.observe()
+
+    def step(self, velocity: object, dt: float = 0.04) -> Observation:
+        """Move the pusher at ``velocity`` (m/s, world frame) for ``dt`` seconds of physics."""
+        if not self._ready:
+            raise RuntimeError("call reset() before step()")
+        v = checked_vector("velocity", velocity, 2)
+        if not (np.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt must be > 0, got {dt!r}")
+        h = self.model.opt.timestep
+        self._target += dt          # whole physics steps, rounded on the running total: no drift
+        n = round(self._target / h) - self._steps
+        for _ in range(n):
+            self.data.mocap_pos[0, :2] += v * h
+            self._mj.mj_step(self.model, self.data)
+            if self.data.ncon:
+                self.max_penetration = max(self.max_penetration, float(-self.data.contact.dist.min()))
+        self._steps += n
+        self.time = self._steps * h
+        return self.observe()

@@ -1,0 +1,140 @@
+"""Realistic sensing on any plant: pose noise, a camera rate, latency and dropped frames (SPEC §3).
+
+:class:`Camera` wraps a plant (:class:`dexpush.plants.ModelPlant` or
+:class:`dexpush.plants.PhysicsPlant`). The control loop still calls ``step(velocity, dt)``
+every control period, but gets back a :class:`Frame` only when a camera frame *arrives*
+in that period, otherwise ``None``:
+
+* frames are captured every 1/``rate_hz`` seconds (``None``: at the end of every control
+  period), by splitting the plant's step at the capture instants;
+* each capture is lost with probability ``drop_prob``;
+* a frame arrives ``latency_s`` after its capture; ``Frame.time`` is the capture time, so
+  the controller can predict forward over the delay;
+* the object pose gets Gaussian noise (``pos_std_m`` on x and y, ``heading_std_rad`` on θ),
+  the pusher position ``pusher_std_m`` (a robot knows its own tip well: default 0).
+
+If several frames arrive within one control period only the newest is returned: a
+controller acts on the latest information. Everything is seeded: equal seeds give equal
+noise and drops.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from dexpush.model import checked_vector
+from dexpush.plants import Observation
+
+__all__ = ["Camera", "Frame", "SensorSettings"]
+
+Frame = Observation   #: an observation; ``time`` is when the frame was captured
+
+
+@dataclass(frozen=True)
+class SensorSettings:
+    """How the world is observed. The defaults are a perfect sensor at the control rate."""
+
+    pos_std_m: float = 0.0            #: object position noise (m), e.g. 1e-3
+    heading_std_rad: float = 0.0      #: object heading noise (rad), e.g. 0.5° = 0.0087
+    pusher_std_m: float = 0.0         #: pusher position noise (m)
+    rate_hz: float | None = None      #: camera rate; None: one frame per control period
+    latency_s: float = 0.0            #: capture-to-arrival delay (s), e.g. 0.06
+    drop_prob: float = 0.0            #: probability that a frame is lost
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("pos_std_m", "heading_std_rad", "pusher_std_m", "latency_s"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be >= 0, got {v!r}")
+        if self.rate_hz is not None and not (np.isfinite(self.rate_hz) and self.rate_hz > 0):
+            raise ValueError(f"rate_hz must be > 0 (or None), got {self.rate_hz!r}")
+        if not 0.0 <= self.drop_prob < 1.0:
+            raise ValueError(f"drop_prob must be in [0, 1), got {self.drop_prob!r}")
+
+    @staticmethod
+    def realistic(seed: int = 0) -> SensorSettings:
+        """A camera as in SPEC §3 / issue 6: 15 Hz, 1 mm and 0.5° noise, 60 ms latency, 5 % drops."""
+        return SensorSettings(1e-3, float(np.radians(0.5)), 0.0, 15.0, 0.06, 0.05, seed)
+
+    @property
+    def perfect(self) -> bool:
+        return (self.pos_std_m == self.heading_std_rad == self.pusher_std_m == self.latency_s == self.drop_prob == 0
+                and self.rate_hz is None)
+
+
+class Camera:
+    """A plant seen through a sensor (see the module docstring).
+
+    Args:
+        plant: anything with ``reset(object_pose, pusher_xy)``, ``step(velocity, dt)`` and
+            ``observe()`` returning :class:`dexpush.plants.Observation`.
+        settings: :class:`SensorSettings`.
+    """
+
+    def __init__(self, plant: object, settings: SensorSettings | None = None) -> None:
+        self.plant = plant
+        self.settings = settings or SensorSettings()
+        self._rng = np.random.default_rng(self.settings.seed)
+        self._pending: deque[tuple[float, Frame]] = deque()
+        self._next_capture = 0.0
+        self.time = 0.0
+        self.captured = self.dropped = self.delivered = 0
+
+    def _capture(self) -> None:
+        s = self.settings
+        self.captured += 1
+        if self._rng.random() < s.drop_prob:
+            self.dropped += 1
+            return
+        obs = self.plant.observe()
+        noise = self._rng.normal(size=5) * [s.pos_std_m, s.pos_std_m, s.heading_std_rad, s.pusher_std_m,
+                                            s.pusher_std_m]
+        frame = Frame(obs.object_pose + noise[:3], obs.pusher_xy + noise[3:], self.time)
+        self._pending.append((self.time + s.latency_s, frame))
+
+    def reset(self, object_pose: object, pusher_xy: object) -> Frame:
+        """Reset the plant; the first frame (time 0) is returned at once, so a run can start."""
+        self.plant.reset(object_pose, pusher_xy)
+        self._rng = np.random.default_rng(self.settings.seed)
+        self._pending.clear()
+        self.time = 0.0
+        self.captured = self.dropped = self.delivered = 0
+        s = self.settings
+        noise = self._rng.normal(size=5) * [s.pos_std_m, s.pos_std_m, s.heading_std_rad, s.pusher_std_m,
+                                            s.pusher_std_m]
+        obs = self.plant.observe()
+        self._next_capture = 1.0 / s.rate_hz if s.rate_hz else np.inf
+        return Frame(obs.object_pose + noise[:3], obs.pusher_xy + noise[3:], 0.0)
+
+    def step(self, velocity: object, dt: float = 0.04) -> Frame | None:
+        """Advance the plant by ``dt`` under ``velocity``; the newest frame that arrived, or None."""
+        v = checked_vector("velocity", velocity, 2)
+        if not (np.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt must be > 0, got {dt!r}")
+        end = self.time + dt
+        while self._next_capture <= end + 1e-9:                # captures inside this period
+            if self._next_capture > self.time + 1e-9:
+                self.plant.step(v, self._next_capture - self.time)
+                self.time = self._next_capture
+            self._capture()
+            self._next_capture += 1.0 / self.settings.rate_hz
+        if end > self.time + 1e-9:
+            self.plant.step(v, end - self.time)
+        self.time = end
+        if self.settings.rate_hz is None:
+            self._capture()
+        newest = None
+        while self._pending and self._pending[0][0] <= self.time + 1e-9:
+            newest = self._pending.popleft()[1]
+        if newest is not None:
+            self.delivered += 1
+        return newest
+
+    @property
+    def state(self) -> np.ndarray:
+        """The plant's true state (for evaluation only; a controller must not read it)."""
+        return self.plant.state
