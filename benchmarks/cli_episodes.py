@@ -1,6 +1,6 @@
 """Run `dexpush run` for tasks × shapes × seeds and tabulate the JSON summaries it prints.
 
-    python benchmarks/cli_episodes.py --seeds 0-4 --out docs/results/mppi_known
+    python benchmarks/cli_episodes.py --seeds 0-4 --out out/cli_episodes
 
 Each episode is a separate `dexpush run ... --quiet --no-animation` process, so the
 numbers are exactly what the CLI reports. Writes ``<out>.json`` (every summary) and
@@ -35,7 +35,7 @@ def main() -> None:
     ap.add_argument("--shapes", default="rect,tee")
     ap.add_argument("--seeds", type=seeds, default=seeds("0-4"))
     ap.add_argument("--params", default="known", choices=["known", "unknown"])
-    ap.add_argument("--out", default="docs/results/mppi_known")
+    ap.add_argument("--out", default="out/cli_episodes")
     args = ap.parse_args()
     rows = []
     for task in args.tasks.split(","):

@@ -19,14 +19,16 @@ import json
 import os
 import platform
 import time
+from functools import partial
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from dexpush import Shape
-from dexpush.controller import ControllerSettings, PushingController
-from dexpush.model import LAMBDA_TRUE
+from dexpush.controller import ControllerSettings, plan_step, policy_init
+from dexpush.cost import Scene
+from dexpush.model import LAMBDA_TRUE, Contour
 from dexpush.mppi import MPPISettings
 
 TARGET_MS = 1.5
@@ -43,33 +45,33 @@ def median_ms(fn, repeats: int) -> float:
     return float(np.median(ts) * 1e3)
 
 
-def dexpush_iteration(K: int, repeats: int) -> float:
+def _planner(K: int):
+    """The controller's own MPPI step (iteration + warm-start shift), jitted, for the rect Task I scene."""
     shape = Shape.rectangle()
-    ctrl = PushingController(shape, (0.6, 0.3, 0.0), settings=ControllerSettings(mppi=MPPISettings(num_samples=K)))
-    x0 = tuple(jnp.float32(v) for v in (0.0, 0.0, 0.0, -0.15, 0.0))
-    key = jax.random.PRNGKey(0)
-    U = ctrl.planner.initial_sequence()
+    settings = ControllerSettings(mppi=MPPISettings(num_samples=K))
+    scene = Scene.make(shape, (0.6, 0.3, 0.0), (), settings.weights)
+    contour = Contour.of(shape)
+    step = partial(plan_step, contour=contour, scene=scene, settings=settings)
+    return step, policy_init(LAMBDA_TRUE, settings, 0)
 
-    def once() -> None:
-        res = ctrl.planner.optimize(key, U, x0, ctrl._params, ctrl.scene)
-        ctrl.planner.shift(res.sequence).block_until_ready()
 
-    return median_ms(once, repeats)
+def dexpush_iteration(K: int, repeats: int) -> float:
+    step, state = _planner(K)
+    step = jax.jit(step)
+    x0 = jnp.asarray([0.0, 0.0, 0.0, -0.15, 0.0], jnp.float32)
+    return median_ms(lambda: step(state, x0)[1].block_until_ready(), repeats)
 
 
 def dexpush_batched(problems: int, K: int, repeats: int) -> float:
     """``problems`` independent MPPI problems (e.g. benchmark trials) in one vmapped call."""
-    shape = Shape.rectangle()
-    ctrl = PushingController(shape, (0.6, 0.3, 0.0), settings=ControllerSettings(mppi=MPPISettings(num_samples=K)))
-    planner = ctrl.planner
-    it = jax.jit(jax.vmap(lambda k, U, x0, p: planner._iterate(k, U, x0, p, ctrl.scene)))
-    keys = jax.random.split(jax.random.PRNGKey(0), problems)
-    U = jnp.zeros((problems, 25, 2))
+    step, state = _planner(K)
+    states = jax.tree.map(lambda a: jnp.stack([a] * problems), state)
+    states = states._replace(key=jax.random.split(jax.random.PRNGKey(0), problems))
     rng = np.random.default_rng(0)
-    x0 = tuple(jnp.asarray(rng.uniform(-0.02, 0.02, problems) + off, jnp.float32)
-               for off in (0.0, 0.0, 0.0, -0.15, 0.0))
-    p = jnp.tile(jnp.asarray(LAMBDA_TRUE, jnp.float32), (problems, 1))
-    return median_ms(lambda: it(keys, U, x0, p).sequence.block_until_ready(), repeats)
+    start = np.array([0.0, 0.0, 0.0, -0.15, 0.0])
+    x0 = jnp.asarray(rng.uniform(-0.02, 0.02, (problems, 5)) + start, jnp.float32)
+    it = jax.jit(jax.vmap(step))
+    return median_ms(lambda: it(states, x0)[1].block_until_ready(), repeats)
 
 
 # ---------------------------------------------------------------------------- torch port

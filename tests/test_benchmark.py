@@ -74,3 +74,13 @@ def test_bench_cli_runs_a_tiny_table(tmp_path: Path, capsys) -> None:
     rec = json.loads((tmp_path / "benchmark.json").read_text())["trials"][0]
     assert rec["method"] == "mppi-ukf" and len(rec["params_estimate"]) == 3
     assert main(["bench", "--shapes", "star", "--out", str(tmp_path)]) == 2
+
+
+def test_worker_processes_record_what_one_process_records(tmp_path: Path) -> None:
+    common = dict(max_steps=6, lanes=2, progress=False, figures=False)
+    one = run_benchmark(tmp_path / "one", ["I", "II"], ["rect"], ["unknown"], ["mppi-ukf"], [0], **common)
+    two = run_benchmark(tmp_path / "two", ["I", "II"], ["rect"], ["unknown"], ["mppi-ukf"], [0], workers=2,
+                        **common)
+    timing = {"planning_ms_median", "planning_ms_max"}
+    assert [{k: v for k, v in r.items() if k not in timing} for r in one] == \
+        [{k: v for k, v in r.items() if k not in timing} for r in two]

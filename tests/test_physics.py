@@ -65,7 +65,7 @@ def test_support_points_cover_a_union_once() -> None:
 def test_bad_input_is_named(rect_plant: PhysicsPlant) -> None:
     with pytest.raises(ValueError, match="inside"):
         rect_plant.reset([0.0, 0.0, 0.0], [0.0, 0.0])
-    with pytest.raises(ValueError, match="NaN|finite"):
+    with pytest.raises(ValueError, match=r"NaN|finite"):
         rect_plant.step([np.nan, 0.0])
     with pytest.raises(ValueError, match="mass"):
         PhysicsSettings(mass=0.0)

@@ -17,7 +17,7 @@ def run_camera(settings: SensorSettings, steps: int = 75) -> tuple[Camera, list]
 
 
 def test_exact_sensor_delivers_every_step_without_noise() -> None:
-    cam, frames = run_camera(SensorSettings(), 10)
+    _, frames = run_camera(SensorSettings(), 10)
     assert all(f is not None for f in frames)
     np.testing.assert_allclose(frames[-1].pusher_xy, [-0.3 + 0.05 * 0.4, 0.0], atol=1e-6)
     assert frames[-1].time == pytest.approx(0.4)

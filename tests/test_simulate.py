@@ -60,7 +60,7 @@ def test_every_result_is_reported_as_it_ends() -> None:
 @pytest.mark.parametrize("kwargs, match", [
     (dict(lanes=0), "lanes"),
     (dict(substeps=5), "substeps"),
-    (dict(plant_params=(25.0, np.nan, 0.0)), "NaN|finite"),
+    (dict(plant_params=(25.0, np.nan, 0.0)), r"NaN|finite"),
 ])
 def test_bad_arguments_are_named(kwargs: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):
@@ -70,5 +70,14 @@ def test_bad_arguments_are_named(kwargs: dict, match: str) -> None:
 def test_bad_trial_is_named() -> None:
     with pytest.raises(ValueError, match="seed"):
         simulate(get_task("I"), make_shape("rect"), [TrialSpec(-1)])
-    with pytest.raises(ValueError, match="β|beta|params"):
+    with pytest.raises(ValueError, match=r"β|beta|params"):
         simulate(get_task("I"), make_shape("rect"), [TrialSpec(0, (-1.0, 0.0, 0.0))])
+
+
+def test_touching_an_obstacle_fails_the_trial_at_the_touch() -> None:
+    """SPEC §5: a disc under the object's start touches it at once; the trial ends there."""
+    from dexpush.tasks import Task
+
+    task = Task("X", "touch", goal=(0.6, 0.0, 0.0), obstacles=((0.0, 0.0, 0.02),))
+    out = simulate(task, make_shape("rect"), [TrialSpec(0), TrialSpec(1)], lanes=2, max_steps=50, chunk=10)
+    assert all(not r.success and r.steps == 1 and len(r.states) == 2 for r in out)

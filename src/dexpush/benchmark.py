@@ -188,6 +188,7 @@ def run_sensed_trial(task: Task, shape: Shape, spec: TrialSpec, plant: str = "ph
     frame = camera.reset(pose, pusher)
     ctrl = PushingController(shape, task.goal, params=spec.params, obstacles=task.obstacles, settings=settings,
                              seed=spec.seed)
+    scene = ctrl.scene
     T = settings.mppi.control_period
     frame_period = 1.0 / sensor.rate_hz if sensor.rate_hz else T
     ctrl.act(frame, frame_period)      # compile outside the timed loop (estimate, predict, plan) ...
@@ -207,6 +208,9 @@ def run_sensed_trial(task: Task, shape: Shape, spec: TrialSpec, plant: str = "ph
         states.append(camera.state)
         success = bool(is_success(camera.state[:3], task.goal))
         bar.update(1)
+        if len(task.obstacles) and bool(collides(jnp.asarray(camera.state, jnp.float32), scene)):
+            success = False                  # touching the obstacle fails the trial (SPEC §5)
+            break
     bar.close()
     return TrialResult(spec, success, np.asarray(states), np.asarray(commands).reshape(-1, 2),
                        np.asarray(lam).reshape(-1, 3), np.asarray(ms))

@@ -26,7 +26,7 @@ Each reset draws a start from the task's distribution (SPEC §5) with the enviro
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -46,7 +46,7 @@ CONTROL_PERIOD = 0.04
 class PushEnv(gym.Env):
     """Goal-oriented planar pushing with a point pusher (see the module docstring)."""
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 25}
+    metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 25}
 
     def __init__(self, task: str = "I", shape: str = "rect", plant: str = "model",
                  sensor: SensorSettings | None = None, max_steps: int = MAX_STEPS,

@@ -16,6 +16,9 @@ batch or which lane it ran in (``tests/test_simulate.py`` checks this bit for bi
 program, which may round differently (XLA picks fusions and FMA contractions by shape):
 episodes then agree to float32 round-off at first, and a closed loop may amplify that.
 
+Touching an obstacle fails a trial (SPEC §5): the logged states are checked after each
+chunk and a trial that touched ends there, as a failure, its log cut at the touch.
+
 A finished lane is frozen (``jnp.where(done, old, new)``) until it is refilled; under
 ``vmap`` it still costs its share of the arithmetic, which is why lanes are refilled
 rather than left to idle until the slowest trial of a batch ends.
@@ -35,7 +38,7 @@ import numpy as np
 from tqdm import tqdm
 
 from dexpush.controller import ControllerSettings, ControllerState, policy_init, policy_step
-from dexpush.cost import Scene
+from dexpush.cost import Scene, collides
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, Contour, check_params, checked_vector, contact_gap, integrate
 from dexpush.tasks import MAX_STEPS, Task, initial_conditions, is_success
@@ -101,6 +104,9 @@ def _advance(lanes: Lane, estimate: jnp.ndarray, max_steps: jnp.ndarray, contour
                   plant_mu=plant_mu, settings=settings, substeps=substeps)
     batched = jax.vmap(one)
     return jax.lax.scan(lambda c, _: batched(c, estimate), lanes, None, length=length)
+
+
+_collides = jax.jit(collides)
 
 
 def _new_lane(task: Task, shape: Shape, spec: TrialSpec, settings: ControllerSettings) -> Lane:
@@ -199,17 +205,25 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
         xs, us, lams, active = (np.asarray(a) for a in (xs, us, lams, active))
         done, success = np.asarray(batch.done), np.asarray(batch.success)
         ms = (time.perf_counter() - t0) * 1e3 / max(int(active.sum()), 1)   # per trial-step
+        # touching an obstacle ends a trial as a failure (SPEC §5); checked here on the logged
+        # states rather than inside the compiled step, whose program (and rounding) it would change
+        hits = np.asarray(_collides(jnp.asarray(xs), scene)) if len(task.obstacles) else np.zeros(active.shape, bool)
         for k, i in enumerate(owner):
             if i is None:
                 continue
             m = active[:, k]
-            logs[i]["x"].append(xs[m, k].astype(np.float64))
-            logs[i]["u"].append(us[m, k].astype(np.float64))
-            logs[i]["lam"].append(lams[m, k].astype(np.float64))
-            logs[i]["ms"].append(np.full(int(m.sum()), ms))
-            if done[k]:
-                finish(i, bool(success[k]))
+            n = int(m.sum())
+            touched = np.flatnonzero(hits[m, k])
+            if len(touched):
+                n = int(touched[0]) + 1                        # keep the log up to the touch
+            logs[i]["x"].append(xs[m, k][:n].astype(np.float64))
+            logs[i]["u"].append(us[m, k][:n].astype(np.float64))
+            logs[i]["lam"].append(lams[m, k][:n].astype(np.float64))
+            logs[i]["ms"].append(np.full(n, ms))
+            if len(touched) or done[k]:
+                finish(i, bool(success[k]) and not len(touched))
                 owner[k] = None
+                batch = batch._replace(done=batch.done.at[k].set(True))   # idle until refilled
         bar.set_postfix(busy=sum(o is not None for o in owner), refresh=False)
     bar.close()
     return [results[i] for i in range(len(trials))]
