@@ -40,7 +40,7 @@ from tqdm import tqdm
 from dexpush.controller import ControllerSettings, ControllerState, policy_init, policy_step
 from dexpush.cost import Scene, collides
 from dexpush.geometry import Shape
-from dexpush.model import LAMBDA_TRUE, Contour, check_params, checked_vector, contact_gap, integrate
+from dexpush.model import LAMBDA_TRUE, Contour, check_params, checked_vector, integrate
 from dexpush.tasks import MAX_STEPS, Task, initial_conditions, is_success
 
 __all__ = ["TrialResult", "TrialSpec", "simulate"]
@@ -228,8 +228,3 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
     bar.close()
     return [results[i] for i in range(len(trials))]
 
-
-def max_penetration(shape: Shape, states: np.ndarray) -> float:
-    """Deepest pusher penetration into the inflated contour over a trajectory (m)."""
-    gap = np.asarray(contact_gap(Contour.of(shape), jnp.asarray(states, jnp.float32)))
-    return float(max(0.0, -gap.min()))

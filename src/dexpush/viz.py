@@ -49,6 +49,16 @@ def _setup_axes(ax: plt.Axes, shape: Shape, states: np.ndarray, goal: np.ndarray
     _draw_pose(ax, shape, goal, fill=False, ec="#d62728", lw=1.5, ls="--", label="goal")
 
 
+def _finish(fig: plt.Figure, ax: plt.Axes, title: str, path: str | os.PathLike | None, dpi: int) -> plt.Figure:
+    """Legend, title, layout, and the atomic save of a scene figure."""
+    ax.legend(loc="best", fontsize=7, framealpha=0.8)
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    if path is not None:
+        save_figure_atomic(fig, path, dpi=dpi)
+    return fig
+
+
 def plot_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.ndarray,
                  obstacles: np.ndarray | None = None, title: str = "", outlines: int = 12,
                  path: str | os.PathLike | None = None) -> plt.Figure:
@@ -70,12 +80,7 @@ def plot_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.n
             if np.any(np.asarray(modes) == MODE_NAMES.index(name)):
                 ax.plot([], [], color=c, lw=2, label=f"pusher: {name}")
     ax.plot(*states[-1, 3:], "o", color="c", ms=6, mec="k")
-    ax.legend(loc="best", fontsize=7, framealpha=0.8)
-    ax.set_title(title, fontsize=9)
-    fig.tight_layout()
-    if path is not None:
-        save_figure_atomic(fig, path, dpi=130)
-    return fig
+    return _finish(fig, ax, title, path, dpi=130)
 
 
 def plot_condition(shape: Shape, trajectories: list[np.ndarray], successes: list[bool], goal: np.ndarray,
@@ -95,12 +100,7 @@ def plot_condition(shape: Shape, trajectories: list[np.ndarray], successes: list
     ax.plot([], [], color="#2ca02c", label="object path (success)")
     if not all(successes):
         ax.plot([], [], color="#d62728", label="object path (failure)")
-    ax.legend(loc="best", fontsize=7, framealpha=0.8)
-    ax.set_title(title, fontsize=9)
-    fig.tight_layout()
-    if path is not None:
-        save_figure_atomic(fig, path, dpi=110)
-    return fig
+    return _finish(fig, ax, title, path, dpi=110)
 
 
 def animate_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.ndarray,
