@@ -81,3 +81,11 @@ def test_touching_an_obstacle_fails_the_trial_at_the_touch() -> None:
     task = Task("X", "touch", goal=(0.6, 0.0, 0.0), obstacles=((0.0, 0.0, 0.02),))
     out = simulate(task, make_shape("rect"), [TrialSpec(0), TrialSpec(1)], lanes=2, max_steps=50, chunk=10)
     assert all(not r.success and r.steps == 1 and len(r.states) == 2 for r in out)
+
+
+def test_a_trial_that_starts_at_its_goal_takes_no_steps() -> None:
+    from dexpush.tasks import Task
+
+    task = Task("X", "at goal", goal=(0.0, 0.0, 0.0), start_jitter_m=0.0, start_jitter_deg=0.0)
+    out = simulate(task, make_shape("rect"), [TrialSpec(0)], lanes=1, max_steps=5)[0]
+    assert out.success and out.steps == 0 and out.states.shape == (1, 5) and out.commands.shape == (0, 2)

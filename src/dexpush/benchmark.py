@@ -71,8 +71,8 @@ class EpisodeRecord:
     final_error_deg: float
     collisions: int               #: control steps that ended in collision with an obstacle
     contact_switches: int         #: contact on/off transitions
-    planning_ms_median: float     #: wall time of one control step (UKF + MPPI + plant), amortized
-    planning_ms_max: float        #: over the lanes of the batch: median and max over its chunks
+    planning_ms_median: float     #: batched runs: wall time of one control step (UKF + MPPI + plant)
+    planning_ms_max: float        #: amortized over the batch; sensed runs: the controller's time per command
     params_estimate: list[float] | None = None
     lanes: int = 1                #: lanes of the batch it ran in (needed to reproduce it exactly)
     plant: str = "model"          #: the world: model (C-GVMM, λ_true) or physics (MuJoCo)
@@ -180,8 +180,7 @@ def run_sensed_trial(task: Task, shape: Shape, spec: TrialSpec, plant: str = "ph
     from dexpush.tasks import initial_conditions, is_success
 
     settings = settings or ControllerSettings()
-    settings = ControllerSettings(settings.mppi, settings.weights, settings.mu, spec.estimate, settings.ukf,
-                                  settings.ukf_substeps)
+    settings = replace(settings, estimate_params=spec.estimate)
     sensor = replace(sensor or SensorSettings(), seed=(sensor.seed if sensor else 0) * 1_000_003 + spec.seed)
     camera = Camera(make_plant(plant, shape), sensor)
     pose, pusher = initial_conditions(task, shape, spec.seed)

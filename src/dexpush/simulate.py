@@ -174,9 +174,11 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
 
     def finish(i: int, lane_success: bool) -> None:
         log = logs.pop(i)
-        res = TrialResult(trials[i], lane_success, np.concatenate([log["x0"], *log["x"]]),
-                          np.concatenate(log["u"]).reshape(-1, 2), np.concatenate(log["lam"]).reshape(-1, 3),
-                          np.concatenate(log["ms"]) if log["ms"] else np.zeros(0))
+        def cat(parts: list[np.ndarray], width: int) -> np.ndarray:
+            return np.concatenate(parts).reshape(-1, width) if parts else np.zeros((0, width))
+
+        res = TrialResult(trials[i], lane_success, np.concatenate([log["x0"], *log["x"]]), cat(log["u"], 2),
+                          cat(log["lam"], 3), np.concatenate(log["ms"]) if log["ms"] else np.zeros(0))
         results[i] = res
         if on_result is not None:
             on_result(res)
