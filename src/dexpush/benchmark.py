@@ -18,21 +18,24 @@ import csv
 import json
 import os
 import sys
+import time
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
+from tqdm import tqdm
 
-from dexpush.controller import ControllerSettings
+from dexpush.controller import ControllerSettings, PushingController
 from dexpush.cost import Scene, collides
 from dexpush.files import atomic_path, write_json_atomic
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
-from dexpush.sensing import SensorSettings
+from dexpush.plants import ModelPlant, PhysicsPlant
+from dexpush.sensing import Camera, SensorSettings
 from dexpush.simulate import TrialResult, TrialSpec, simulate
-from dexpush.tasks import MAX_STEPS, Task, get_task, pose_error
+from dexpush.tasks import MAX_STEPS, Task, get_task, initial_conditions, is_success, pose_error
 
 __all__ = ["BENCH_LANES", "METHODS", "PARAMS", "SHAPES", "Episode", "EpisodeRecord", "make_shape", "run_benchmark",
            "run_episode", "summarize", "write_tables"]
@@ -153,8 +156,6 @@ PLANTS = ("model", "physics")
 
 def make_plant(name: str, shape: Shape) -> object:
     """The world of an experiment: ``model`` (C-GVMM with λ_true) or ``physics`` (MuJoCo)."""
-    from dexpush.plants import ModelPlant, PhysicsPlant
-
     if name == "model":
         return ModelPlant(shape)
     if name == "physics":
@@ -171,14 +172,6 @@ def run_sensed_trial(task: Task, shape: Shape, spec: TrialSpec, plant: str = "ph
     The controller only sees frames; success is judged on the plant's true state. The
     recorded ``step_ms`` is the controller's own time per command (planning latency).
     """
-    import time
-
-    from tqdm import tqdm
-
-    from dexpush.controller import PushingController
-    from dexpush.sensing import Camera
-    from dexpush.tasks import initial_conditions, is_success
-
     settings = settings or ControllerSettings()
     settings = replace(settings, estimate_params=spec.estimate)
     sensor = replace(sensor or SensorSettings(), seed=(sensor.seed if sensor else 0) * 1_000_003 + spec.seed)
@@ -323,8 +316,6 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
                seeds: tuple[int, ...], max_steps: int, lanes: int, settings: ControllerSettings | None,
                progress: bool, figures: bool, plant: str, sensor: SensorSettings | None, position: int = 0) -> None:
     """The conditions of one task and shape (see :func:`run_benchmark`)."""
-    from dexpush.viz import plot_condition
-
     task, shape = get_task(task_key), make_shape(shape_name)
     scene = Scene.make(shape, task.goal, task.obstacles)
     batched = plant == "model" and (sensor is None or sensor.perfect)
@@ -354,20 +345,20 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
         simulate(task, shape, [sp for sp, _, _ in specs], settings, max_steps=max_steps, lanes=lanes,
                  on_result=save, progress=progress, desc=desc)
     elif specs:
-        from tqdm import tqdm
-
         for spec, _, _ in tqdm(specs, desc=f"{desc} ({plant})", unit="trial", disable=not progress,
                                position=position, leave=False):
             save(run_sensed_trial(task, shape, spec, plant, sensor, settings, max_steps))
     if figures:
         for name, new in paths.items():
-            _save_trajectories(out, name, new, shape, task, records[name], plot_condition)
+            _save_trajectories(out, name, new, shape, task, records[name])
 
 
 def _save_trajectories(out: Path, name: str, new: dict[int, np.ndarray], shape: Shape, task: Task,
-                       recs: dict[int, dict], plot) -> None:
+                       recs: dict[int, dict]) -> None:
     """Merge new trajectories into the condition's npz and redraw its figure."""
     import matplotlib.pyplot as plt
+
+    from dexpush.viz import plot_condition
 
     path = out / "trajectories" / f"{name}.npz"
     trajs: dict[int, np.ndarray] = {}
@@ -382,7 +373,7 @@ def _save_trajectories(out: Path, name: str, new: dict[int, np.ndarray], shape: 
             np.savez_compressed(fh, **{f"seed_{s}": trajs[s] for s in sorted(trajs)})
     seeds = sorted(s for s in trajs if s in recs)
     ok = sum(recs[s]["success"] for s in seeds)
-    fig = plot(shape, [trajs[s] for s in seeds], [recs[s]["success"] for s in seeds], np.asarray(task.goal),
+    fig = plot_condition(shape, [trajs[s] for s in seeds], [recs[s]["success"] for s in seeds], np.asarray(task.goal),
                np.asarray(task.obstacles).reshape(-1, 3),
                title=f"{name.replace('_', ' · ')}: {ok}/{len(seeds)} successes",
                path=out / "figures" / f"{name}.png")
