@@ -37,14 +37,16 @@ from dexpush.sensing import Camera, SensorSettings
 from dexpush.simulate import TrialResult, TrialSpec, simulate
 from dexpush.tasks import MAX_STEPS, Task, get_task, initial_conditions, is_success, pose_error
 
-__all__ = ["BENCH_LANES", "METHODS", "PARAMS", "SHAPES", "Episode", "EpisodeRecord", "make_shape", "run_benchmark",
-           "run_episode", "summarize", "write_tables"]
+__all__ = ["ALL_METHODS", "BENCH_LANES",
+           "METHODS", "PARAMS", "SHAPES", "Episode", "EpisodeRecord", "make_shape", "run_benchmark",
+           "run_episode", "run_gcs_trial", "summarize", "write_tables"]
 
 #: λ_pred of the two parameter scenarios (paper Sec. IV-B)
 PARAMS = {"known": LAMBDA_TRUE, "unknown": (15.0, 0.0, 0.0)}
 _SHAPE_MAKERS = {"rect": Shape.rectangle, "tee": Shape.tee, "ellipse": Shape.ellipse}
 SHAPES = tuple(_SHAPE_MAKERS)
-METHODS = ("mppi", "mppi-ukf")
+METHODS = ("mppi", "mppi-ukf")        #: the closed-loop MPPI methods the benchmark runs by default
+ALL_METHODS = (*METHODS, "gcs")        #: plus the GCS plan-and-track baseline (Tasks I, II; dexpush.gcs)
 CONTROL_PERIOD = 0.04
 BENCH_LANES = 32   #: trials the benchmark advances together (one compiled program for every run)
 
@@ -106,8 +108,8 @@ def _path_length(xy: np.ndarray) -> float:
 def _check_condition(params: str, method: str) -> None:
     if params not in PARAMS:
         raise ValueError(f"unknown params {params!r}; choose 'known' or 'unknown'")
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    if method not in ALL_METHODS:
+        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(ALL_METHODS)}")
 
 
 def _sensor_label(sensor: SensorSettings | None) -> str:
@@ -208,6 +210,41 @@ def run_sensed_trial(task: Task, shape: Shape, spec: TrialSpec, plant: str = "ph
                        np.asarray(lam).reshape(-1, 3), np.asarray(ms))
 
 
+def run_gcs_trial(task: Task, shape: Shape, spec: TrialSpec, plant: str = "model", max_steps: int = MAX_STEPS,
+                  progress: bool = False) -> TrialResult:
+    """One trial of the GCS baseline: plan offline with λ_pred, track on the plant (λ_true).
+
+    ``step_ms`` holds the wall time of every control step, planning included: the first
+    entry is the offline plan, later large entries are replans (see :class:`GCSTracker`).
+    """
+    from dexpush.gcs import GCSTracker  # Drake loads only for this method
+
+    if task.obstacles:
+        raise ValueError(f"the GCS baseline has no obstacle support (task {task.key}); use tasks I or II")
+    world = make_plant(plant, shape)
+    pose, pusher = initial_conditions(task, shape, spec.seed)
+    obs = world.reset(pose, pusher)
+    tracker = GCSTracker(shape, task.goal, spec.params)
+    states, commands, ms = [world.state], [], []
+    success = bool(is_success(obs.object_pose, task.goal))
+    bar = tqdm(total=max_steps, desc=f"task {task.key} {shape.name} (gcs)", unit="step", disable=not progress,
+               leave=False)
+    while not success and len(commands) < max_steps:
+        t0 = time.perf_counter()
+        u = tracker.command(obs.object_pose, obs.pusher_xy)
+        ms.append((time.perf_counter() - t0) * 1e3)
+        obs = world.step(u, CONTROL_PERIOD)
+        commands.append(u)
+        states.append(world.state)
+        success = bool(is_success(obs.object_pose, task.goal))
+        bar.update(1)
+        if not tracker.plans and tracker.failures:
+            break                            # not even the first plan exists
+    bar.close()
+    lam = np.tile(np.asarray(spec.params, dtype=np.float64), (len(commands), 1))
+    return TrialResult(spec, success, np.asarray(states), np.asarray(commands).reshape(-1, 2), lam, np.asarray(ms))
+
+
 def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str = "known",
                 method: str = "mppi", seed: int = 0, max_steps: int = MAX_STEPS,
                 settings: ControllerSettings | None = None, progress: bool = False, lanes: int = 1,
@@ -227,6 +264,11 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
         raise ValueError(f"max_steps must be >= 1, got {max_steps}")
     if plant not in PLANTS:
         raise ValueError(f"unknown plant {plant!r}; choose one of {', '.join(PLANTS)}")
+    if method == "gcs":
+        if sensor is not None and not sensor.perfect:
+            raise ValueError("the GCS baseline runs with exact observations only (no --camera)")
+        result = run_gcs_trial(task, shape, spec, plant, max_steps, progress)
+        return make_episode(task, shape_name, shape, params, method, result, 1, plant=plant)
     if plant == "model" and (sensor is None or sensor.perfect):
         result = simulate(task, shape, [spec], settings, max_steps=max_steps, lanes=lanes, chunk=chunk,
                           progress=progress, desc=f"task {task.key} {shape_name}")[0]

@@ -19,7 +19,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from dexpush.benchmark import BENCH_LANES, METHODS, PARAMS, PLANTS, SHAPES
+from dexpush.benchmark import ALL_METHODS, BENCH_LANES, METHODS, PARAMS, PLANTS, SHAPES
 from dexpush.tasks import MAX_STEPS
 
 __all__ = ["main"]
@@ -219,8 +219,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--shape", default="rect", choices=SHAPES)
     run.add_argument("--params", default="known", choices=tuple(PARAMS),
                      help="λ_pred = λ_true (known) or [15, 0, 0] (unknown)")
-    run.add_argument("--method", default="mppi", choices=METHODS,
-                     help="MPPI with fixed λ_pred, or with the UKF estimating λ online")
+    run.add_argument("--method", default="mppi", choices=ALL_METHODS,
+                     help="MPPI with fixed λ_pred, MPPI with the UKF estimating λ online, or the GCS "
+                          "plan-and-track baseline (tasks I and II; needs the `drake` package)")
     run.add_argument("--seed", type=_seed, default=0)
     run.add_argument("--plant", default="model", choices=PLANTS,
                      help="the world: model (C-GVMM, λ_true) or physics (MuJoCo) (default model)")

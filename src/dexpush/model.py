@@ -52,6 +52,7 @@ __all__ = [
     "contact_gap",
     "force_motion",
     "integrate",
+    "limit_surface_matrix",
     "replay",
     "resolve_penetration",
     "solve_contact",
@@ -120,6 +121,17 @@ def _limit_surface(params: jnp.ndarray, alpha: float | jnp.ndarray) -> tuple[jnp
     b2 = beta * beta
     return (a2 * (1 + b2 * yf * yf), -a2 * b2 * xf * yf, a2 * b2 * yf,
             a2 * (1 + b2 * xf * xf), -a2 * b2 * xf, a2 * b2)
+
+
+def limit_surface_matrix(params: object, alpha: float = 1.0) -> np.ndarray:
+    """M = A_bf·L̃·A_bfᵀ of eq. 5 as a (3, 3) float64 array: body twist V_sb = M·[f; r × f].
+
+    For planners that need the force–motion map as a matrix (the GCS baseline); the same
+    entries as the C-GVMM's own :func:`_limit_surface`.
+    """
+    p = checked_vector("params", params, 3)
+    m00, m01, m02, m11, m12, m22 = (float(v) for v in _limit_surface(p, alpha))
+    return np.array([[m00, m01, m02], [m01, m11, m12], [m02, m12, m22]])
 
 
 def _sym3_mul(m: tuple[jnp.ndarray, ...], v: tuple[jnp.ndarray, ...]) -> tuple[jnp.ndarray, ...]:
