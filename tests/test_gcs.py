@@ -14,8 +14,8 @@ import pytest
 pytest.importorskip("pydrake")
 
 from dexpush.benchmark import PARAMS, make_shape
-from dexpush.gcs import GCSSettings, PlanningError, _segment_distance, contact_faces, plan_push
-from dexpush.geometry import Shape
+from dexpush.gcs import GCSSettings, PlanningError, contact_faces, plan_push
+from dexpush.geometry import Shape, distance_to_polygons
 from dexpush.model import Contour, replay
 from dexpush.tasks import get_task, initial_conditions
 
@@ -43,7 +43,7 @@ def test_faces_of_rect_and_tee():
         q = f.pusher_point(np.linspace(f.sigma_lo, f.sigma_hi, 50), tee.pusher_radius)
         for j, poly in enumerate(tee.polygons):
             if j != f.polygon:
-                assert np.all(_segment_distance(q, poly) >= tee.pusher_radius - 1e-9)
+                assert np.all(distance_to_polygons(q, [poly]) >= tee.pusher_radius - 1e-9)
     bar_under = [f for f in faces if np.allclose(f.n_out, (0, -1)) and f.polygon == 0]
     assert len(bar_under) == 2 and all(abs(f.d[0] * (f.sigma_hi - f.sigma_lo)) < 0.075 - 0.009 for f in bar_under)
 

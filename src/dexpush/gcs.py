@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dexpush.geometry import Shape
+from dexpush.geometry import Shape, distance_to_polygons
 from dexpush.model import check_params, checked_vector
 
 __all__ = ["Face", "GCSSettings", "GCSTracker", "Plan", "PlanningError", "contact_faces", "free_regions", "plan_push"]
@@ -153,17 +153,6 @@ class Face:
         return np.array([self.a[i] + sigma * self.d[i] + rho * self.n_out[i] for i in range(2)])
 
 
-def _segment_distance(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance from points (n, 2) to a polygon's boundary, negative inside (convex poly)."""
-    a, b = poly, np.roll(poly, -1, axis=0)
-    ab = b - a
-    t = np.clip(np.einsum("nej,ej->ne", p[:, None] - a[None], ab) / np.einsum("ej,ej->e", ab, ab), 0, 1)
-    dist = np.linalg.norm(p[:, None] - (a[None] + t[..., None] * ab[None]), axis=-1).min(1)
-    n = np.stack([ab[:, 1], -ab[:, 0]], -1) / np.linalg.norm(ab, axis=-1, keepdims=True)
-    inside = np.all(np.einsum("nej,ej->ne", p[:, None] - a[None], n) < 0, axis=1)
-    return np.where(inside, -dist, dist)
-
-
 def _is_convex_ccw(poly: np.ndarray) -> bool:
     e = np.roll(poly, -1, axis=0) - poly
     cross = e[:, 0] * np.roll(e, -1, axis=0)[:, 1] - e[:, 1] * np.roll(e, -1, axis=0)[:, 0]
@@ -196,7 +185,7 @@ def contact_faces(shape: Shape, sigma_margin: float = 0.005, samples: int = 801)
             ok = np.ones(samples, dtype=bool)
             for pj, other in enumerate(polys):
                 if pj != pi:
-                    ok &= _segment_distance(q, other) >= rho - 1e-9
+                    ok &= distance_to_polygons(q, [other]) >= rho - 1e-9
             # every run of usable samples is a face (a piece's edge can be split by another piece)
             runs, start = [], None
             for i, flag in enumerate(np.append(ok, False)):

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["Shape", "contour_lookup", "hermite_coefficients"]
+__all__ = ["Shape", "contour_lookup", "distance_to_polygons", "hermite_coefficients"]
 
 _RAY_SAMPLES = 400
 _BISECTION_STEPS = 40
@@ -309,6 +309,13 @@ def _union_distance(p: np.ndarray, polys: tuple[np.ndarray, ...],
     for poly in polys:
         inside |= _inside_polygon(p, poly)
     return np.where(inside, 0.0, d), near
+
+
+def distance_to_polygons(points: np.ndarray, polygons: tuple[np.ndarray, ...] | list[np.ndarray]) -> np.ndarray:
+    """Distance (m) from points (..., 2) to the union of ``polygons``; 0 inside any of them."""
+    a = np.concatenate(polygons)
+    b = np.concatenate([np.roll(poly, -1, axis=0) for poly in polygons])
+    return _union_distance(np.asarray(points, dtype=np.float64), tuple(polygons), a, b)[0]
 
 
 def _radial_table_polygons(polys: tuple[np.ndarray, ...], rho: float,
