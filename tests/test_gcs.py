@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -13,8 +14,8 @@ import pytest
 
 pytest.importorskip("pydrake")
 
-from dexpush.benchmark import PARAMS, make_shape
-from dexpush.gcs import GCSSettings, PlanningError, contact_faces, plan_push
+from dexpush.benchmark import PARAMS, make_shape, run_benchmark, write_tables
+from dexpush.gcs import GCSSettings, GCSTracker, PlanningError, contact_faces, plan_push
 from dexpush.geometry import Shape, distance_to_polygons
 from dexpush.model import Contour, replay
 from dexpush.tasks import get_task, initial_conditions
@@ -102,6 +103,32 @@ def test_solver_failure_is_an_error_not_an_empty_plan():
         plan_push(shape, pose, pusher, task.goal, PARAMS["known"], settings=tiny)
 
 
+def test_tracker_gives_up_when_planning_fails():
+    shape, task = make_shape("rect"), get_task("I")
+    pose, pusher = initial_conditions(task, shape, 1)
+    tracker = GCSTracker(shape, task.goal, PARAMS["known"], settings=GCSSettings(max_step_m=0.002,
+                                                                               workspace_margin_m=0.05))
+    assert not tracker.gave_up
+    assert np.all(tracker.command(pose, pusher) == 0.0)
+    assert tracker.gave_up and len(tracker.failures) == 1 and not tracker.plans
+
+
+def test_bench_fills_the_gcs_column_and_skips_task_iii(tmp_path):
+    records = run_benchmark(tmp_path, ["I", "III"], ["rect"], ["known"], ["gcs"], [1], max_steps=30,
+                            progress=False, figures=False)
+    assert [(r["task"], r["method"]) for r in records] == [("I", "gcs")]
+    gcs = records[0]
+    assert gcs["steps"] == 30 and not gcs["success"] and gcs["lanes"] == 1
+    assert gcs["offline_plan_s"] > 0.01 and gcs["replans"] >= 0
+    assert not (tmp_path / "conditions" / "III_rect_known_gcs.json").exists()
+    table = Path(write_tables(tmp_path, records, {})["markdown"]).read_text()
+    row = next(line for line in table.splitlines() if "| gcs |" in line)
+    assert row.startswith("| I | rect | known | gcs | 0/1") and "not implemented" not in table
+    again = run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["gcs"], [1], max_steps=30, progress=False,
+                          figures=False)
+    assert again == [gcs]                   # resumed from the condition file, not re-run
+
+
 def test_bad_input():
     shape = make_shape("rect")
     with pytest.raises(ValueError, match="start"):
@@ -119,7 +146,7 @@ def test_cli_runs_gcs_and_refuses_task_iii(tmp_path):
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 1, proc.stderr[-2000:]      # 40 steps cannot reach the goal: exit 1
     rec = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert rec["method"] == "gcs" and rec["steps"] == 40 and rec["planning_ms_max"] > 10
+    assert rec["method"] == "gcs" and rec["steps"] == 40 and rec["offline_plan_s"] > 0.01 and rec["replans"] >= 0
     bad = subprocess.run([sys.executable, "-m", "dexpush.cli", "run", "--task", "III", "--method", "gcs",
                           "--out", str(tmp_path / "bad")], capture_output=True, text=True, timeout=300)
     assert bad.returncode != 0 and "obstacle" in bad.stderr

@@ -82,6 +82,8 @@ class EpisodeRecord:
     lanes: int = 1                #: lanes of the batch it ran in (needed to reproduce it exactly)
     plant: str = "model"          #: the world: model (C-GVMM, λ_true) or physics (MuJoCo)
     sensor: str = "exact"         #: what the controller saw (see dexpush.sensing)
+    offline_plan_s: float | None = None   #: GCS: wall time of the offline plan (before the first step)
+    replans: int | None = None            #: GCS: plans made during tracking
 
 
 @dataclass
@@ -148,7 +150,9 @@ def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method:
         collisions=int(np.sum(hits)), contact_switches=int(np.sum(in_contact[1:] != in_contact[:-1])),
         planning_ms_median=round(float(np.median(ms)), 3), planning_ms_max=round(float(np.max(ms)), 3),
         params_estimate=[round(float(v), 5) for v in result.params[-1]] if method == "mppi-ukf" and len(U) else None,
-        lanes=int(lanes), plant=plant, sensor=_sensor_label(sensor))
+        lanes=int(lanes), plant=plant, sensor=_sensor_label(sensor),
+        offline_plan_s=round(float(result.plan_s[0]), 3) if result.plan_s else None,
+        replans=len(result.plan_s) - 1 if result.plan_s else None)
     return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(task.goal),
                    np.asarray(task.obstacles).reshape(-1, 3))
 
@@ -214,8 +218,11 @@ def run_gcs_trial(task: Task, shape: Shape, spec: TrialSpec, plant: str = "model
                   progress: bool = False) -> TrialResult:
     """One trial of the GCS baseline: plan offline with λ_pred, track on the plant (λ_true).
 
-    ``step_ms`` holds the wall time of every control step, planning included: the first
-    entry is the offline plan, later large entries are replans (see :class:`GCSTracker`).
+    ``step_ms`` holds the wall time of every control step after the offline plan (replans
+    included: they happen online); ``plan_s`` the wall time of the offline plan and of each
+    replan (see :class:`dexpush.gcs.GCSTracker`). The trial ends early when the tracker
+    gives up (no plan, or replans exhausted and the plan run out): the object would stay
+    put for the remaining steps.
     """
     from dexpush.gcs import GCSTracker  # Drake loads only for this method
 
@@ -224,12 +231,14 @@ def run_gcs_trial(task: Task, shape: Shape, spec: TrialSpec, plant: str = "model
     world = make_plant(plant, shape)
     pose, pusher = initial_conditions(task, shape, spec.seed)
     obs = world.reset(pose, pusher)
-    tracker = GCSTracker(shape, task.goal, spec.params)
+    tracker = GCSTracker(shape, task.goal, spec.params, control_period=CONTROL_PERIOD)
     states, commands, ms = [world.state], [], []
     success = bool(is_success(obs.object_pose, task.goal))
+    if not success:
+        tracker.plan(obs.object_pose, obs.pusher_xy)       # offline: before the clock starts
     bar = tqdm(total=max_steps, desc=f"task {task.key} {shape.name} (gcs)", unit="step", disable=not progress,
                leave=False)
-    while not success and len(commands) < max_steps:
+    while not success and len(commands) < max_steps and not tracker.gave_up:
         t0 = time.perf_counter()
         u = tracker.command(obs.object_pose, obs.pusher_xy)
         ms.append((time.perf_counter() - t0) * 1e3)
@@ -238,11 +247,10 @@ def run_gcs_trial(task: Task, shape: Shape, spec: TrialSpec, plant: str = "model
         states.append(world.state)
         success = bool(is_success(obs.object_pose, task.goal))
         bar.update(1)
-        if not tracker.plans and tracker.failures:
-            break                            # not even the first plan exists
     bar.close()
     lam = np.tile(np.asarray(spec.params, dtype=np.float64), (len(commands), 1))
-    return TrialResult(spec, success, np.asarray(states), np.asarray(commands).reshape(-1, 2), lam, np.asarray(ms))
+    return TrialResult(spec, success, np.asarray(states), np.asarray(commands).reshape(-1, 2), lam, np.asarray(ms),
+                       tuple(tracker.planning_s))
 
 
 def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str = "known",
@@ -324,6 +332,11 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
         raise ValueError(f"unknown plant {plant!r}; choose one of {', '.join(PLANTS)}")
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
+    if "gcs" in methods and sensor is not None and not sensor.perfect:
+        raise ValueError("the GCS baseline runs with exact observations only; drop gcs or the camera options")
+    skipped = [t for t in task_keys if get_task(t).obstacles] if "gcs" in methods else []
+    if skipped and progress:
+        print(f"gcs: no obstacle support, skipping task {', '.join(skipped)}", file=sys.stderr, flush=True)
     seeds = sorted({int(s) for s in seeds})
     groups = [(t, sh) for t in task_keys for sh in shapes]
     common = dict(params=tuple(params), methods=tuple(methods), seeds=tuple(seeds), max_steps=max_steps,
@@ -349,9 +362,15 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
                 os.environ.pop("XLA_FLAGS", None)
             else:
                 os.environ["XLA_FLAGS"] = saved
-    order = [condition_name(t, sh, p, m) for t in task_keys for sh in shapes for p in params for m in methods]
+    order = [condition_name(t, sh, p, m) for t in task_keys for sh in shapes for p in params
+             for m in _methods_for(get_task(t), methods)]
     records = {name: _load_condition(out / "conditions" / f"{name}.json") for name in order}
     return [records[name][s] for name in order for s in seeds]
+
+
+def _methods_for(task: Task, methods: Sequence[str]) -> tuple[str, ...]:
+    """The methods that run on ``task``: GCS has no obstacle support (as in the paper)."""
+    return tuple(m for m in methods if not (m == "gcs" and task.obstacles))
 
 
 def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, ...], methods: tuple[str, ...],
@@ -361,7 +380,7 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
     task, shape = get_task(task_key), make_shape(shape_name)
     scene = Scene.make(shape, task.goal, task.obstacles)
     batched = plant == "model" and (sensor is None or sensor.perfect)
-    names = {(p, m): condition_name(task.key, shape_name, p, m) for p in params for m in methods}
+    names = {(p, m): condition_name(task.key, shape_name, p, m) for p in params for m in _methods_for(task, methods)}
     records: dict[str, dict[int, dict]] = {}
     specs: list[tuple[TrialSpec, str, str]] = []
     for (p, m), name in names.items():
@@ -373,23 +392,28 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
     def save(result: TrialResult) -> None:
         p, m = owner[id(result.spec)]
         name = names[(p, m)]
-        ep = make_episode(task, shape_name, shape, p, m, result, lanes if batched else 1, scene, plant=plant,
-                          sensor=sensor)
+        ep = make_episode(task, shape_name, shape, p, m, result, lanes if batched and m != "gcs" else 1, scene,
+                          plant=plant, sensor=sensor)
         records[name][result.spec.seed] = ep.summary()
         write_json_atomic(out / "conditions" / f"{name}.json",
                           {"trials": [records[name][s] for s in sorted(records[name])]})
         paths[name][result.spec.seed] = result.states.astype(np.float32)
 
     desc = f"task {task.key} {shape_name}"
-    if specs and batched:
+    planned = [spec for spec, _, m in specs if m == "gcs"]
+    closed_loop = [spec for spec, _, m in specs if m != "gcs"]
+    if closed_loop and batched:
         if progress:
-            print(f"{desc}: {len(specs)} trials in {lanes} lanes", file=sys.stderr, flush=True)
-        simulate(task, shape, [sp for sp, _, _ in specs], settings, max_steps=max_steps, lanes=lanes,
+            print(f"{desc}: {len(closed_loop)} trials in {lanes} lanes", file=sys.stderr, flush=True)
+        simulate(task, shape, closed_loop, settings, max_steps=max_steps, lanes=lanes,
                  on_result=save, progress=progress, desc=desc)
-    elif specs:
-        for spec, _, _ in tqdm(specs, desc=f"{desc} ({plant})", unit="trial", disable=not progress,
-                               position=position, leave=False):
+    elif closed_loop:
+        for spec in tqdm(closed_loop, desc=f"{desc} ({plant})", unit="trial", disable=not progress,
+                         position=position, leave=False):
             save(run_sensed_trial(task, shape, spec, plant, sensor, settings, max_steps))
+    for spec in tqdm(planned, desc=f"{desc} (gcs, {plant})", unit="trial", disable=not progress or not planned,
+                     position=position, leave=False):
+        save(run_gcs_trial(task, shape, spec, plant, max_steps))
     if figures:
         for name, new in paths.items():
             _save_trajectories(out, name, new, shape, task, records[name])
@@ -431,12 +455,17 @@ def summarize(trials: list[dict]) -> dict:
         return [round(float(v.mean()), 4), round(float(v.std()), 4)] if len(v) else None
 
     plan = np.array([t["planning_ms_median"] for t in trials], float)
+    offline = np.array([t["offline_plan_s"] for t in trials if t.get("offline_plan_s") is not None], float)
+    replans = np.array([t["replans"] for t in trials if t.get("replans") is not None], float)
     return {"trials": len(trials), "successes": len(ok),
             "success_rate": round(len(ok) / len(trials), 4) if trials else None,
             "object_path_m": mean_std("object_path_m"), "pusher_path_m": mean_std("pusher_path_m"),
             "time_to_goal_s": mean_std("time_s"),
             "planning_ms_median": round(float(np.median(plan)), 3) if len(plan) else None,
-            "planning_ms_max": round(float(max(t["planning_ms_max"] for t in trials)), 3) if trials else None}
+            "planning_ms_max": round(float(max(t["planning_ms_max"] for t in trials)), 3) if trials else None,
+            "offline_plan_s": [round(float(np.median(offline)), 3), round(float(offline.max()), 3)]
+            if len(offline) else None,
+            "replans_mean": round(float(replans.mean()), 2) if len(replans) else None}
 
 
 def write_tables(out: str | os.PathLike, records: list[dict], meta: dict) -> dict[str, str]:
@@ -449,9 +478,9 @@ def write_tables(out: str | os.PathLike, records: list[dict], meta: dict) -> dic
     files = {"json": str(out / "benchmark.json"), "csv": str(out / "benchmark.csv"),
              "markdown": str(out / "benchmark.md")}
     write_json_atomic(files["json"], {"meta": meta, "summary": summary, "trials": records})
-    cols = list(records[0].keys()) if records else []
+    cols = list(dict.fromkeys(k for r in records for k in r))    # records written by older versions lack fields
     with atomic_path(files["csv"]) as tmp, open(tmp, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=cols)
+        writer = csv.DictWriter(fh, fieldnames=cols, restval="")
         writer.writeheader()
         for r in records:
             writer.writerow({k: json.dumps(v) if isinstance(v, list) else v for k, v in r.items()})
@@ -461,15 +490,15 @@ def write_tables(out: str | os.PathLike, records: list[dict], meta: dict) -> dic
 
     lines = [f"Produced by `{meta.get('command', '')}` on {meta.get('date', '')} ({meta.get('machine', '')}).", "",
              "| task | shape | params | method | SR | object TL (m) | pusher TL (m) | time to goal (s) "
-             "| planning ms (median / max) |", "|---|---|---|---|---|---|---|---|---|"]
+             "| planning ms per step (median / max) | offline plan s (median / max) | replans (mean) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary:
         lines.append(f"| {s['task']} | {s['shape']} | {s['params']} | {s['method']} | "
                      f"{s['successes']}/{s['trials']} ({100 * s['success_rate']:.0f} %) | {fmt(s['object_path_m'])} | "
                      f"{fmt(s['pusher_path_m'])} | {fmt(s['time_to_goal_s'])} | "
-                     f"{s['planning_ms_median']:.1f} / {s['planning_ms_max']:.0f} |")
-    for task in sorted({s["task"] for s in summary} & {"I", "II"}):
-        for shape in sorted({s["shape"] for s in summary}):
-            lines.append(f"| {task} | {shape} | – | gcs | not implemented | | | | |")
+                     f"{s['planning_ms_median']:.1f} / {s['planning_ms_max']:.0f} | "
+                     + (f"{s['offline_plan_s'][0]:.1f} / {s['offline_plan_s'][1]:.1f} | {s['replans_mean']:.1f} |"
+                        if s["offline_plan_s"] else "– | – |"))
     with atomic_path(files["markdown"]) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
     return files

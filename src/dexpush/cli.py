@@ -19,7 +19,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from dexpush.benchmark import ALL_METHODS, BENCH_LANES, METHODS, PARAMS, PLANTS, SHAPES
+from dexpush.benchmark import ALL_METHODS, BENCH_LANES, PARAMS, PLANTS, SHAPES
 from dexpush.tasks import MAX_STEPS
 
 __all__ = ["main"]
@@ -144,7 +144,7 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
 
     tasks = [get_task(t).key for t in args.tasks.split(",")]
     shapes, params, methods = (args.shapes.split(","), args.params.split(","), args.methods.split(","))
-    choices = (("shape", shapes, SHAPES), ("params", params, tuple(PARAMS)), ("method", methods, METHODS))
+    choices = (("shape", shapes, SHAPES), ("params", params, tuple(PARAMS)), ("method", methods, ALL_METHODS))
     for name, values, allowed in choices:
         bad = [v for v in values if v not in allowed]
         if bad:
@@ -165,7 +165,7 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
             "wall_s_this_invocation": round(wall, 1)}
     files = write_tables(args.out, records, meta)
     ok = sum(r["success"] for r in records)
-    n_cond = len(tasks) * len(shapes) * len(params) * len(methods)
+    n_cond = len({tuple(r[k] for k in ("task", "shape", "params", "method")) for r in records})
     return {"conditions": n_cond, "trials": len(records), "successes": ok,
             "success_rate": round(ok / len(records), 4) if records else None, "wall_s": round(wall, 1),
             "files": files}
@@ -235,7 +235,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--tasks", default="I,II,III")
     bench.add_argument("--shapes", default="rect,tee")
     bench.add_argument("--params", default="known,unknown")
-    bench.add_argument("--methods", default="mppi,mppi-ukf")
+    bench.add_argument("--methods", default="mppi,mppi-ukf",
+                       help="comma-separated, from mppi, mppi-ukf, gcs (gcs skips task III: no obstacles)")
     bench.add_argument("--trials", type=_positive_int, default=30, help="seeds 0 … trials−1 (default 30)")
     bench.add_argument("--seeds", type=_seed_list, default=None, metavar="LIST",
                        help="run these seeds instead, e.g. 7 or 0-4,9 (re-running a seed reproduces its record)")

@@ -25,13 +25,18 @@ Graph
 
 Relaxation and rounding
     The bilinear constraints (SO(2), R(θ)·δ, σ·c_n) make every contact vertex a small
-    nonconvex QCQP. Each is replaced by its band-sparse semidefinite (Shor) relaxation —
-    one PSD moment matrix per pair of consecutive knots, Drake's
-    ``MakeSemidefiniteRelaxation`` with variable groups — and the whole graph's convex
-    relaxation is solved with Clarabel (open source). The path is read off the relaxed
-    flows (greedy, highest flow first), and the plan on that path is rounded by a local
-    nonlinear solve (SNOPT, IPOPT as fallback) with the exact dynamics, warm-started from
-    the relaxation.
+    nonconvex QCQP. By default (``relaxation="mccormick"``) each bilinear term gets its
+    McCormick envelope, with ``(c, s)`` kept in the convex hull of the arc of headings
+    between start and goal (padded by ``heading_pad_rad``): every vertex is a polyhedron
+    and the graph's convex relaxation is a small conic program, solved by Clarabel (SCS
+    as fallback). ``relaxation="sdp"`` is the paper's band-sparse semidefinite (Shor)
+    relaxation instead — one PSD moment matrix per pair of consecutive knots, Drake's
+    ``MakeSemidefiniteRelaxation`` with variable groups — tighter but ~30–100× slower with
+    open-source solvers (docs/gcs.md). Candidate paths are random walks on the relaxed
+    flows (most probable first); the plan on a path is rounded by a local nonlinear solve
+    (SNOPT, or IPOPT) with the exact SE(2) step, warm-started from the relaxation. When no
+    candidate rounds, the two-contact paths through the faces with the most relaxed flow
+    are tried.
 
 Costs: object path length (Σ‖Δp‖), rotation (Σ|δθ|), pusher travel in free motion
 (Σ‖Δq‖), a small force regulariser and a constant cost per contact mode.
@@ -44,7 +49,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -64,6 +69,9 @@ class GCSSettings:
 
     Attributes:
         knots: knot points per contact mode (``N``; ``N − 1`` impulses).
+        retry_knots: when no path rounds, plan again with each of these knot counts in turn
+            (finer steps give the rounding more freedom; on the T in Task II, 9 of 30 start
+            states that fail with 5 knots were tried with 7 and rounded, docs/gcs.md).
         mu_margin: plan with ``μ' = mu_margin·μ`` so that the planned contact sticks with a
             margin (a force on the cone's edge would be a coin-flip between stick and slide
             for the C-GVMM).
@@ -86,6 +94,7 @@ class GCSSettings:
     """
 
     knots: int = 5
+    retry_knots: tuple[int, ...] = (7,)
     mu_margin: float = 0.8
     max_step_m: float = 0.15
     max_step_rad: float = 0.5
@@ -108,8 +117,8 @@ class GCSSettings:
     speed: float = 0.06
 
     def __post_init__(self) -> None:
-        if int(self.knots) < 2:
-            raise ValueError(f"knots must be >= 2, got {self.knots}")
+        if int(self.knots) < 2 or any(int(k) < 2 for k in self.retry_knots):
+            raise ValueError(f"knots must be >= 2, got {self.knots} and retry_knots {self.retry_knots}")
         if not 0.0 < self.mu_margin <= 1.0:
             raise ValueError(f"mu_margin must be in (0, 1], got {self.mu_margin}")
         for name in ("max_step_m", "max_step_rad", "speed"):
@@ -963,8 +972,10 @@ def _round(path: list[_Vertex], values: dict[str, np.ndarray], P: _Problem) -> t
         for a, b in zip(q[-1], end):
             prog.AddConstraint(a == b)
         for m in range(V.knots - 1):
-            d = q[m + 1] - q[m]
-            cost += S.w_free * sym.sqrt(d[0] * d[0] + d[1] * d[1] + 1e-8)
+            # scalar Expression arithmetic: numpy's object-array subtraction checks the FPU
+            # flags afterwards and reports a spurious 'invalid value' from Drake's internals
+            dx, dy = q[m + 1, 0] - q[m, 0], q[m + 1, 1] - q[m, 1]
+            cost += S.w_free * sym.sqrt(dx * dx + dy * dy + 1e-8)
     prog.AddCost(cost)
 
     from pydrake.solvers import SolverOptions
@@ -1063,7 +1074,23 @@ def plan_push(shape: Shape, start: object, pusher: object, goal: object, params:
         raise ValueError(f"dt must be positive, got {dt}")
     _quiet_drake()
     t0 = time.perf_counter()
-    P = _make_problem(shape, start, pusher, goal, p, float(mu), settings)
+    ladder = [settings] + [replace(settings, knots=int(k), retry_knots=()) for k in settings.retry_knots]
+    for i, attempt in enumerate(ladder):
+        try:
+            plan = _plan_once(shape, start, pusher, goal, p, float(mu), attempt, dt)
+            break
+        except PlanningError:
+            if i == len(ladder) - 1:
+                raise
+    plan.planning_s = time.perf_counter() - t0       # all attempts
+    return plan
+
+
+def _plan_once(shape: Shape, start: np.ndarray, pusher: np.ndarray, goal: np.ndarray, p: np.ndarray, mu: float,
+               settings: GCSSettings, dt: float) -> Plan:
+    """One build–relax–round pass of :func:`plan_push` with fixed settings."""
+    t0 = time.perf_counter()
+    P = _make_problem(shape, start, pusher, goal, p, mu, settings)
     G = _build_graph(P)
     t1 = time.perf_counter()
     candidates, values, relax_cost, vertex_flow = _solve_relaxation(G, P)
@@ -1082,7 +1109,8 @@ def plan_push(shape: Shape, start: object, pusher: object, goal: object, params:
         best = (path, sol, cost)
         break
     if best is None:
-        raise PlanningError(f"no path of the GCS relaxation could be rounded ({len(errors)} tried); "
+        raise PlanningError(f"no path of the GCS relaxation could be rounded with {settings.knots} knots "
+                            f"({len(errors)} tried); "
                             f"first failure: {errors[0]}")
     relax_s, round_s = t2 - t1, time.perf_counter() - t2
     path, sol, rounded_cost = best
@@ -1107,7 +1135,7 @@ class GCSTracker:
 
     def __init__(self, shape: Shape, goal: object, params: object, mu: float = 0.3,
                  settings: GCSSettings | None = None, control_period: float = 0.04, v_max: float = 0.1,
-                 replan_m: float = 0.01, replan_deg: float = 4.0, max_replans: int = 10) -> None:
+                 replan_m: float = 0.01, replan_deg: float = 4.0, max_replans: int = 40) -> None:
         self.shape, self.goal = shape, checked_vector("goal", goal, 3)
         self.params, self.mu = checked_vector("params", params, 3), float(mu)
         self.settings = settings or GCSSettings()
@@ -1124,7 +1152,10 @@ class GCSTracker:
     def replans(self) -> int:
         return max(len(self.plans) - 1, 0)
 
-    def _replan(self, pose: np.ndarray, pusher: np.ndarray) -> None:
+    def plan(self, pose: object, pusher: object) -> Plan | None:
+        """Plan from the measured object pose and pusher position; the new plan (or ``None``
+        when the planner fails, with the reason appended to ``failures``) replaces the current one."""
+        pose, pusher = checked_vector("pose", pose, 3), checked_vector("pusher", pusher, 2)
         t0 = time.perf_counter()
         try:
             self._plan = plan_push(self.shape, pose, pusher, self.goal, self.params, self.mu, self.settings, self.dt)
@@ -1134,22 +1165,34 @@ class GCSTracker:
             self.failures.append(str(exc))
         self.planning_s.append(time.perf_counter() - t0)
         self._i = 0
+        return self._plan
+
+    @property
+    def gave_up(self) -> bool:
+        """Nothing left to execute: the last planning attempt failed (planning again from the
+        same resting state would fail again), or the plan has run out and no replans are left."""
+        if not self.planning_s:
+            return False
+        if self._plan is None:
+            return True
+        return self._i >= len(self._plan.times) - 1 and len(self.planning_s) > self.max_replans
 
     def command(self, pose: object, pusher: object) -> np.ndarray:
-        """The pusher velocity for the measured object pose and pusher position."""
+        """The pusher velocity for the measured object pose and pusher position (plans on the
+        first call unless :meth:`plan` was called; zero once the tracker has given up)."""
         pose, pusher = checked_vector("pose", pose, 3), checked_vector("pusher", pusher, 2)
         if not self.planning_s:
-            self._replan(pose, pusher)
+            self.plan(pose, pusher)
         plan = self._plan
         if plan is not None:
             i = min(self._i, len(plan.times) - 1)
             d = pose[2] - plan.poses[i, 2]
             strayed = (np.linalg.norm(pose[:2] - plan.poses[i, :2]) > self.replan_m
                        or abs(np.arctan2(np.sin(d), np.cos(d))) > self.replan_rad)
-            if (strayed or self._i >= len(plan.times) - 1) and len(self.planning_s) <= self.max_replans:
-                self._replan(pose, pusher)
-                plan = self._plan
-            elif self._i >= len(plan.times) - 1:
+            ended = self._i >= len(plan.times) - 1
+            if (strayed or ended) and len(self.planning_s) <= self.max_replans:
+                plan = self.plan(pose, pusher)
+            elif ended:
                 plan = None
         if plan is None:
             return np.zeros(2)

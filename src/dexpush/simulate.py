@@ -66,6 +66,7 @@ class TrialResult:
     commands: np.ndarray      #: (T, 2) pusher velocities
     params: np.ndarray        #: (T, 3) λ_pred planned with at each step
     step_ms: np.ndarray       #: (T,) wall time of each control step, amortized over its chunk's lanes
+    plan_s: tuple[float, ...] = ()   #: GCS baseline only: wall time of the offline plan, then of each replan
 
     @property
     def steps(self) -> int:
