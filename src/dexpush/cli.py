@@ -19,7 +19,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from dexpush.benchmark import ALL_METHODS, BENCH_LANES, PARAMS, PLANTS, SHAPES
+from dexpush.benchmark import ALL_METHODS, BENCH_LANES, CONDITION_KEYS, PARAMS, PLANTS, SHAPES
 from dexpush.tasks import MAX_STEPS
 
 __all__ = ["main"]
@@ -165,7 +165,7 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
             "wall_s_this_invocation": round(wall, 1)}
     files = write_tables(args.out, records, meta)
     ok = sum(r["success"] for r in records)
-    n_cond = len({tuple(r[k] for k in ("task", "shape", "params", "method")) for r in records})
+    n_cond = len({tuple(r[k] for k in CONDITION_KEYS) for r in records})
     return {"conditions": n_cond, "trials": len(records), "successes": ok,
             "success_rate": round(ok / len(records), 4) if records else None, "wall_s": round(wall, 1),
             "files": files}

@@ -1128,7 +1128,8 @@ class GCSTracker:
     (feedback on the pusher). The object is not steered between plans: when its pose
     strays from the plan's by more than ``replan_m`` or ``replan_deg``, or the plan ends
     short of the goal, the tracker replans from the measured state (object pose and
-    pusher), at most ``max_replans`` times; after that it stops (zero velocity).
+    pusher), at most ``max_replans`` times (default 40). It gives up (:attr:`gave_up`, zero
+    velocity from then on) when a plan fails, or when the last allowed plan has run out.
 
     Attributes after use: ``plans`` (every plan made), ``planning_s`` (their times).
     """
