@@ -55,6 +55,7 @@ import numpy as np
 
 from dexpush.geometry import Shape, distance_to_polygons
 from dexpush.model import check_params, checked_vector
+from dexpush.tasks import pose_error
 
 __all__ = ["Face", "GCSSettings", "GCSTracker", "Plan", "PlanningError", "contact_faces", "free_regions", "plan_push"]
 
@@ -1141,17 +1142,13 @@ class GCSTracker:
         self.params, self.mu = checked_vector("params", params, 3), float(mu)
         self.settings = settings or GCSSettings()
         self.dt, self.u_max = float(control_period), float(v_max) / np.sqrt(2)
-        self.replan_m, self.replan_rad = float(replan_m), np.radians(replan_deg)
+        self.replan_m, self.replan_deg = float(replan_m), float(replan_deg)
         self.max_replans = int(max_replans)
         self.plans: list[Plan] = []
         self.planning_s: list[float] = []
         self.failures: list[str] = []
         self._plan: Plan | None = None
         self._i = 0
-
-    @property
-    def replans(self) -> int:
-        return max(len(self.plans) - 1, 0)
 
     def plan(self, pose: object, pusher: object) -> Plan | None:
         """Plan from the measured object pose and pusher position; the new plan (or ``None``
@@ -1186,10 +1183,8 @@ class GCSTracker:
             self.plan(pose, pusher)
         plan = self._plan
         if plan is not None:
-            i = min(self._i, len(plan.times) - 1)
-            d = pose[2] - plan.poses[i, 2]
-            strayed = (np.linalg.norm(pose[:2] - plan.poses[i, :2]) > self.replan_m
-                       or abs(np.arctan2(np.sin(d), np.cos(d))) > self.replan_rad)
+            pos_err, head_err = pose_error(pose, plan.poses[min(self._i, len(plan.times) - 1)])
+            strayed = pos_err > self.replan_m or head_err > self.replan_deg
             ended = self._i >= len(plan.times) - 1
             if (strayed or ended) and len(self.planning_s) <= self.max_replans:
                 plan = self.plan(pose, pusher)
