@@ -18,7 +18,8 @@ from dexpush.benchmark import PARAMS, make_shape, run_benchmark, write_tables
 from dexpush.gcs import GCSSettings, GCSTracker, PlanningError, contact_faces, plan_push
 from dexpush.geometry import Shape, distance_to_polygons
 from dexpush.model import Contour, replay
-from dexpush.tasks import get_task, initial_conditions, pose_error
+from dexpush.se2 import pose_error
+from dexpush.tasks import get_task, initial_conditions
 
 _PLANS: dict = {}
 

@@ -10,7 +10,8 @@ from dexpush import Shape
 from dexpush.benchmark import run_episode
 from dexpush.cost import Scene, collides
 from dexpush.model import Contour, contact_gap
-from dexpush.tasks import TASKS, Task, get_task, initial_conditions, is_success, pose_error
+from dexpush.se2 import pose_error
+from dexpush.tasks import TASKS, Task, get_task, initial_conditions, is_success
 
 
 def test_tasks_match_the_spec() -> None:

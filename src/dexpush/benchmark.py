@@ -33,9 +33,10 @@ from dexpush.files import atomic_path, write_json_atomic
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
 from dexpush.plants import ModelPlant, PhysicsPlant
+from dexpush.se2 import pose_error
 from dexpush.sensing import Camera, SensorSettings
 from dexpush.simulate import TrialResult, TrialSpec, simulate
-from dexpush.tasks import MAX_STEPS, Task, get_task, initial_conditions, is_success, pose_error
+from dexpush.tasks import MAX_STEPS, Task, get_task, initial_conditions, is_success
 
 __all__ = ["ALL_METHODS", "BENCH_LANES",
            "METHODS", "PARAMS", "SHAPES", "Episode", "EpisodeRecord", "make_shape", "run_benchmark",

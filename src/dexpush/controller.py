@@ -27,9 +27,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from dexpush.checks import check_params, checked_vector
 from dexpush.cost import CostWeights, Scene, running_cost, terminal_cost
 from dexpush.geometry import Shape
-from dexpush.model import LAMBDA_TRUE, Contour, check_params, checked_vector, integrate, step
+from dexpush.model import LAMBDA_TRUE, Contour, integrate, step
 from dexpush.mppi import MPPIResult, MPPISettings, mppi_iteration, shift_in_time
 from dexpush.plants import Observation
 from dexpush.ukf import EstimatorState, UKFSettings, estimator_init, estimator_observe

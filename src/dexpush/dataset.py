@@ -45,7 +45,7 @@ import numpy as np
 
 from dexpush.geometry import Shape
 from dexpush.model import FREE, MODE_NAMES, SLIDE_CCW, SLIDE_CW, STICK, Contour, contact_solution, integrate, replay
-from dexpush.tasks import pose_error
+from dexpush.se2 import pose_error, wrap_angle
 
 __all__ = ["OBJECTS", "PUSHER_RADIUS", "Push", "ValidationResult", "load_folder", "load_push", "validate"]
 
@@ -202,7 +202,7 @@ def _contact_geometry(contour: Contour, X: np.ndarray) -> tuple[np.ndarray, ...]
     c, s = np.cos(X[:, 2]), np.sin(X[:, 2])
     body = np.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
     phi = np.unwrap(np.arctan2(body[:, 1], body[:, 0]))
-    R, dR = (np.asarray(a, np.float64) for a in contour.lookup(jnp.asarray(np.angle(np.exp(1j * phi)))))
+    R, dR = (np.asarray(a, np.float64) for a in contour.lookup(jnp.asarray(wrap_angle(phi))))
     dist = np.linalg.norm(body, axis=-1)
     on_contour = X[:, :2] + (R / dist)[:, None] * rel
     return phi, R, dR, dist - R, on_contour
@@ -245,7 +245,7 @@ def _residuals(contour: Contour, smp: Samples, lam: np.ndarray, mu: float) -> np
     pred = np.asarray(_one_step(contour, jnp.asarray(smp.states, jnp.float32), jnp.asarray(smp.inputs, jnp.float32),
                                 jnp.asarray(lam, jnp.float32), jnp.float32(mu)), np.float64)[:, :3]
     d = pred - smp.next_pose
-    d[:, 2] = 0.05 * np.angle(np.exp(1j * d[:, 2]))
+    d[:, 2] = 0.05 * wrap_angle(d[:, 2])
     return d.reshape(-1)
 
 

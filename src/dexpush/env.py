@@ -35,6 +35,7 @@ from gymnasium import spaces
 from dexpush.benchmark import PLANTS, make_plant, make_shape
 from dexpush.cost import CostWeights
 from dexpush.mppi import MPPISettings
+from dexpush.se2 import wrap_angle
 from dexpush.sensing import Camera, SensorSettings
 from dexpush.tasks import MAX_STEPS, get_task, initial_conditions, is_success
 
@@ -74,7 +75,7 @@ class PushEnv(gym.Env):
     def _observation(self, frame: Any) -> np.ndarray:
         if frame is not None:
             obs = np.concatenate([frame.object_pose, frame.pusher_xy, self._goal])
-            obs[[2, 7]] = np.angle(np.exp(1j * obs[[2, 7]]))           # headings in [−π, π]
+            obs[[2, 7]] = wrap_angle(obs[[2, 7]])           # headings in [−π, π]
             lim = self.observation_space.high
             self._obs = np.clip(obs, -lim, lim).astype(np.float32)
         return self._obs.copy()

@@ -53,9 +53,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from dexpush.checks import check_params, checked_vector
 from dexpush.geometry import Shape, distance_to_polygons
-from dexpush.model import check_params, checked_vector
-from dexpush.tasks import pose_error
+from dexpush.se2 import pose_error
 
 __all__ = ["Face", "GCSSettings", "GCSTracker", "Plan", "PlanningError", "contact_faces", "free_regions", "plan_push"]
 

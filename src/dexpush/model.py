@@ -35,6 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush import fastmath
+from dexpush.checks import check_params, checked_vector
 from dexpush.geometry import Shape, contour_lookup
 
 __all__ = [
@@ -358,30 +359,6 @@ def _require_last(a: jnp.ndarray, n: int, name: str) -> None:
 def _solve_jit(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, params: jnp.ndarray,
                mu: jnp.ndarray, alpha: jnp.ndarray) -> ContactSolution:
     return solve_contact(contour, x, u, params, mu, alpha)
-
-
-def checked_vector(name: str, value: object, size: int, batch: bool = False) -> np.ndarray:
-    """``value`` as a finite float64 array of shape (size,), or (..., size) with ``batch``.
-
-    The one input check of the public entry points: a clear ``ValueError`` naming the
-    argument for wrong shapes, non-numeric input, NaN or infinity.
-    """
-    try:
-        a = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be numeric, got {value!r}") from exc
-    ok = (a.ndim >= 1 and a.shape[-1] == size) if batch else a.shape == (size,)
-    if not ok:
-        raise ValueError(f"{name} must have shape {f'(..., {size})' if batch else f'({size},)'}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains NaN or infinite values: {a}")
-    return a
-
-
-def check_params(params: jnp.ndarray) -> None:
-    """Reject λ with β ≤ 0 (the limit surface would be degenerate)."""
-    if np.any(np.asarray(params[..., 0]) <= 0):
-        raise ValueError(f"β (params[..., 0]) must be > 0 (1/m), got {np.asarray(params[..., 0])}")
 
 
 def contact_solution(shape: Shape | Contour, x: object, u: object, params: object = LAMBDA_TRUE,

@@ -20,8 +20,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from dexpush.checks import check_params, checked_vector
 from dexpush.geometry import Shape
-from dexpush.model import LAMBDA_TRUE, Contour, check_params, checked_vector, contact_gap, integrate
+from dexpush.model import LAMBDA_TRUE, Contour, contact_gap, integrate
 
 __all__ = ["ModelPlant", "Observation"]
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dexpush.model import checked_vector
+from dexpush.checks import checked_vector
 from dexpush.plants import Observation
 
 __all__ = ["Camera", "Frame", "SensorSettings"]

@@ -37,10 +37,11 @@ import jax.numpy as jnp
 import numpy as np
 from tqdm import tqdm
 
+from dexpush.checks import check_params, checked_vector
 from dexpush.controller import ControllerSettings, ControllerState, policy_init, policy_step
 from dexpush.cost import Scene, collides
 from dexpush.geometry import Shape
-from dexpush.model import LAMBDA_TRUE, Contour, check_params, checked_vector, integrate
+from dexpush.model import LAMBDA_TRUE, Contour, integrate
 from dexpush.tasks import MAX_STEPS, Task, initial_conditions, is_success
 
 __all__ = ["TrialResult", "TrialSpec", "simulate"]

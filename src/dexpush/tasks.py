@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from dexpush.geometry import Shape
+from dexpush.se2 import pose_error
 
 __all__ = [
     "MAX_STEPS",
@@ -28,7 +29,6 @@ __all__ = [
     "get_task",
     "initial_conditions",
     "is_success",
-    "pose_error",
 ]
 
 SUCCESS_POSITION_M = 0.008
@@ -88,21 +88,7 @@ def initial_conditions(task: Task, shape: Shape, seed: int) -> tuple[np.ndarray,
     return pose, pusher
 
 
-def pose_error(object_pose: object, goal: object, xp: Any = np) -> tuple[Any, Any]:
-    """Position error (m) and absolute heading error (deg, wrapped) against the goal.
-
-    ``xp`` is the array module: numpy (default, float64) or ``jax.numpy`` inside jit.
-    """
-    q = xp.asarray(object_pose)
-    g = xp.asarray(goal, dtype=q.dtype)
-    if xp is np:
-        q, g = q.astype(np.float64), g.astype(np.float64)
-    pos = xp.sqrt(xp.sum((q[..., :2] - g[:2]) ** 2, axis=-1))
-    d = q[..., 2] - g[2]
-    return pos, xp.degrees(xp.abs(xp.arctan2(xp.sin(d), xp.cos(d))))
-
-
 def is_success(object_pose: object, goal: object, xp: Any = np) -> Any:
-    """Position error < 8 mm and heading error < 3° (``xp`` as in :func:`pose_error`)."""
+    """Position error < 8 mm and heading error < 3° (``xp`` as in :func:`dexpush.se2.pose_error`)."""
     pos, head = pose_error(object_pose, goal, xp)
     return (pos < SUCCESS_POSITION_M) & (head < SUCCESS_HEADING_DEG)

@@ -48,7 +48,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.model import Contour, checked_vector, contact_gap, replay
+from dexpush.checks import checked_vector
+from dexpush.model import Contour, contact_gap, replay
+from dexpush.se2 import wrap_angle
 
 __all__ = ["EstimatorState", "UKFSettings", "UKFState", "WindowEstimator", "estimator_init", "estimator_observe",
            "prior_covariance", "sigma_points", "ukf_update", "window_update"]
@@ -128,10 +130,6 @@ def ukf_update(state: UKFState, z: jnp.ndarray, h: Callable[[jnp.ndarray], jnp.n
     return UKFState(mean, cov)
 
 
-def _wrap(a: jnp.ndarray) -> jnp.ndarray:
-    return jnp.arctan2(jnp.sin(a), jnp.cos(a))
-
-
 def prior_covariance(settings: UKFSettings) -> jnp.ndarray:
     """P₀ = diag(init_std)²: the prior, and the cap on every later covariance."""
     return jnp.diag(jnp.asarray(settings.init_std, jnp.float32) ** 2)
@@ -148,7 +146,8 @@ def window_update(state: UKFState, contour: Contour, window: jnp.ndarray, dt: jn
     def predicted_poses(lam: jnp.ndarray) -> jnp.ndarray:
         q = replay(contour, x0, moves, dt, lam, mu, substeps)[:, :3]
         # heading relative to the observation, so the residual is wrapped
-        return jnp.concatenate([q[:, :2], (observed[:, 2] + _wrap(q[:, 2] - observed[:, 2]))[:, None]], -1).ravel()
+        heading = observed[:, 2] + wrap_angle(q[:, 2] - observed[:, 2], jnp)
+        return jnp.concatenate([q[:, :2], heading[:, None]], -1).ravel()
 
     h = jax.vmap(predicted_poses)
     M = observed.shape[0]

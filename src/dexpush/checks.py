@@ -1,0 +1,48 @@
+"""Input checks of the public entry points: one code path, one message style.
+
+Every public function and settings class validates what a user hands it with these
+helpers, so a wrong input fails at once with a ``ValueError`` that names the argument and
+says what was expected, instead of a NaN or a traceback deep inside a compiled rollout.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["check_params", "check_positive", "checked_vector"]
+
+
+def checked_vector(name: str, value: object, size: int, batch: bool = False) -> np.ndarray:
+    """``value`` as a finite float64 array of shape (size,), or (..., size) with ``batch``.
+
+    Raises ``ValueError`` naming the argument for wrong shapes, non-numeric input, NaN or
+    infinity.
+    """
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be numeric, got {value!r}") from exc
+    ok = (a.ndim >= 1 and a.shape[-1] == size) if batch else a.shape == (size,)
+    if not ok:
+        raise ValueError(f"{name} must have shape {f'(..., {size})' if batch else f'({size},)'}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} contains NaN or infinite values: {a}")
+    return a
+
+
+def check_positive(name: str, value: object, unit: str = "") -> float:
+    """``value`` as a float that is finite and > 0, else a ``ValueError`` naming it."""
+    try:
+        v = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a number, got {value!r}") from exc
+    if not (np.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be a finite number > 0{f' ({unit})' if unit else ''}, got {value!r}")
+    return v
+
+
+def check_params(params: object) -> None:
+    """Reject λ = [β, x_bf, y_bf] with β ≤ 0 (the limit surface would be degenerate)."""
+    beta = np.asarray(params)[..., 0]
+    if np.any(beta <= 0):
+        raise ValueError(f"β (params[..., 0]) must be > 0 (1/m), got {beta}")

@@ -1,0 +1,46 @@
+"""Planar rigid-body (SE(2)) helpers shared by every layer: angle wrapping, rotations, pose error.
+
+A pose is (x, y, θ) in metres and radians, θ measured counter-clockwise from the world x
+axis. Angles are wrapped to (−π, π] only where two are compared (SPEC §2). Every function
+takes an array module ``xp``: numpy (default; results in float64) or ``jax.numpy`` inside
+jit, so the same definition serves plotting, bookkeeping and compiled rollouts.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = ["pose_error", "rotate", "rotation_matrix", "wrap_angle"]
+
+
+def wrap_angle(angle: Any, xp: Any = np) -> Any:
+    """``angle`` wrapped to (−π, π] (elementwise): atan2(sin a, cos a)."""
+    return xp.arctan2(xp.sin(angle), xp.cos(angle))
+
+
+def rotation_matrix(theta: Any, xp: Any = np) -> Any:
+    """R(θ) (..., 2, 2): rotates body-frame vectors into the world frame."""
+    c, s = xp.cos(theta), xp.sin(theta)
+    return xp.stack([xp.stack([c, -s], -1), xp.stack([s, c], -1)], -2)
+
+
+def rotate(vector: Any, theta: Any, xp: Any = np) -> Any:
+    """R(θ)·v for vectors (..., 2), broadcasting θ over the leading axes."""
+    v = xp.asarray(vector)
+    c, s = xp.cos(theta), xp.sin(theta)
+    return xp.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], -1)
+
+
+def pose_error(object_pose: object, goal: object, xp: Any = np) -> tuple[Any, Any]:
+    """Position error (m) and absolute heading error (deg, wrapped) of poses (..., 3) against ``goal``.
+
+    With numpy the arithmetic is float64 whatever the input dtype.
+    """
+    q = xp.asarray(object_pose)
+    g = xp.asarray(goal, dtype=q.dtype)
+    if xp is np:
+        q, g = q.astype(np.float64), g.astype(np.float64)
+    pos = xp.sqrt(xp.sum((q[..., :2] - g[:2]) ** 2, axis=-1))
+    return pos, xp.degrees(xp.abs(wrap_angle(q[..., 2] - g[2], xp)))
