@@ -9,8 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dexpush.benchmark import run_benchmark, summarize, write_tables
+from dexpush.benchmark import run_benchmark
 from dexpush.cli import main
+from dexpush.records import summarize
+from dexpush.tables import write_tables
 
 
 def test_benchmark_resumes_without_rerunning_recorded_trials(tmp_path: Path) -> None:

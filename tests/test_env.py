@@ -46,3 +46,17 @@ def test_truncation_and_bad_input() -> None:
         env.step([np.nan, 0.0])
     with pytest.raises(ValueError, match="plant"):
         PushEnv(plant="bullet")
+
+
+def test_env_runs_a_users_own_plant_and_shape() -> None:
+    from dexpush import Shape
+    from test_runner import EulerPlant
+
+    shape = Shape.polygon([[-0.05, -0.05], [0.08, -0.05], [0.0, 0.07]])
+    env = PushEnv(task="I", shape=shape, plant=EulerPlant(shape))
+    obs, info = env.reset(seed=1)
+    assert obs.shape == (8,) and not info["is_success"]
+    obs2, reward, *_ = env.step([0.05, 0.0])
+    assert env.camera.plant.steps == 1 and np.all(np.isfinite(obs2)) and reward < 0
+    with pytest.raises(ValueError, match="not a plant"):
+        PushEnv(plant=object())

@@ -14,11 +14,13 @@ import pytest
 
 pytest.importorskip("pydrake")
 
-from dexpush.benchmark import PARAMS, make_shape, run_benchmark, write_tables
+from dexpush.benchmark import run_benchmark
 from dexpush.gcs import GCSSettings, GCSTracker, PlanningError, contact_faces, plan_push
 from dexpush.geometry import Shape, distance_to_polygons
 from dexpush.model import Contour, replay
+from dexpush.registry import PARAMS, make_shape
 from dexpush.se2 import pose_error
+from dexpush.tables import write_tables
 from dexpush.tasks import get_task, initial_conditions
 
 _PLANS: dict = {}

@@ -13,29 +13,32 @@ from hypothesis import strategies as st
 
 from dexpush import Shape
 from dexpush.controller import ControllerSettings, PushingController
-from dexpush.mppi import MPPI, MPPISettings, shift_in_time
+from dexpush.mppi import MPPISettings, mppi_iteration, shift_in_time
 
 
-def point_mass_planner(**kw) -> MPPI:
-    """A point that moves with the input, cost = squared distance to the origin."""
+@functools.cache
+def point_mass_planner(**kw):
+    """One jitted MPPI iteration for a point that moves with the input, cost = squared distance to
+    the target: ``plan(key, U, x0, params, target)`` (cached: Hypothesis examples reuse one compile)."""
     def dynamics(x, u, dt, params):
         return x + dt * u
 
     def cost(x, target):
         return jnp.sum((x - target) ** 2, -1)
 
-    return MPPI(dynamics, cost, lambda x, t: 10 * cost(x, t), MPPISettings(**kw))
+    return jax.jit(functools.partial(mppi_iteration, dynamics=dynamics, running_cost=cost,
+                                     terminal_cost=lambda x, t: 10 * cost(x, t), settings=MPPISettings(**kw)))
 
 
 def test_mppi_lowers_the_cost_on_a_simple_problem() -> None:
     planner = point_mass_planner(num_samples=256)
     x0, target = jnp.array([0.3, -0.2]), jnp.zeros(2)
-    U = planner.initial_sequence()
+    U = jnp.zeros((25, 2))
     key = jax.random.PRNGKey(0)
     costs = []
     for _ in range(15):
         key, sub = jax.random.split(key)
-        res = planner.optimize(sub, U, x0, None, target)
+        res = planner(sub, U, x0, None, target)
         costs.append(float(res.cost_nominal))
         U = res.sequence
     assert costs[-1] < 0.5 * costs[0]
@@ -48,7 +51,7 @@ def test_mppi_lowers_the_cost_on_a_simple_problem() -> None:
 def test_clipping_holds_for_every_output(seed: int, scale: float) -> None:
     planner = point_mass_planner(num_samples=64)
     U = scale * jax.random.normal(jax.random.PRNGKey(seed), (25, 2))
-    res = planner.optimize(jax.random.PRNGKey(seed + 1), U, jnp.array([1.0, 1.0]), None, jnp.zeros(2))
+    res = planner(jax.random.PRNGKey(seed + 1), U, jnp.array([1.0, 1.0]), None, jnp.zeros(2))
     assert np.all(np.abs(np.asarray(res.sequence)) <= 0.1 / np.sqrt(2) + 1e-7)
 
 

@@ -59,7 +59,7 @@ def test_bad_settings_are_named(bad: dict) -> None:
 def test_controller_copes_with_a_slow_late_lossy_camera() -> None:
     """Task II on the model plant through a realistic camera: the controller holds, predicts,
     and skips UKF updates on missing frames; the run makes clear progress toward the goal."""
-    from dexpush.benchmark import run_episode
+    from dexpush.runner import run_episode
 
     ep = run_episode("II", "rect", params="unknown", method="mppi-ukf", seed=1, max_steps=150,
                      sensor=SensorSettings.realistic())

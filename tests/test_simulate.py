@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dexpush.benchmark import make_shape
 from dexpush.controller import ControllerSettings, PushingController
 from dexpush.plants import ModelPlant
+from dexpush.registry import make_shape
 from dexpush.simulate import TrialSpec, simulate
 from dexpush.tasks import get_task, initial_conditions
 

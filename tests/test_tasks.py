@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from dexpush import Shape
-from dexpush.benchmark import run_episode
 from dexpush.cost import Scene, collides
 from dexpush.model import Contour, contact_gap
+from dexpush.runner import run_episode
 from dexpush.se2 import pose_error
 from dexpush.tasks import TASKS, Task, get_task, initial_conditions, is_success
 

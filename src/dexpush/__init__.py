@@ -1,7 +1,25 @@
-"""dexpush: contact-aware, goal-oriented planar pushing (Lee & Kim, C-GVMM + MPPI + UKF)."""
+"""dexpush: contact-aware, goal-oriented planar pushing (Lee & Kim: C-GVMM, long-horizon MPPI, UKF).
 
+The stable public API (names and settings fields kept from version 0.2 on; see docs/api.md):
+
+* the model: :class:`Shape`, :func:`cgvmm`, :func:`contact_solution`;
+* the controller: :class:`PushingController` (``reset``, ``command``, ``act``, ``params``,
+  ``set_params``) with :class:`ControllerSettings`, :class:`MPPISettings`, :class:`UKFSettings`;
+* sensing: :class:`SensorSettings`, :class:`Camera`;
+* the loop: the :class:`Plant` and :class:`Controller` protocols, :class:`Observation`,
+  :func:`run_loop` (any plant, any controller) and :func:`run_episode` (a benchmark trial by name).
+"""
+
+from dexpush.controller import ControllerSettings, PushingController
+from dexpush.estimator import UKFSettings
 from dexpush.geometry import Shape
+from dexpush.interfaces import Controller, Observation, Plant
 from dexpush.model import LAMBDA_TRUE, MODE_NAMES, cgvmm, contact_solution, force_motion
+from dexpush.mppi import MPPISettings
+from dexpush.runner import run_episode, run_loop
+from dexpush.sensing import Camera, SensorSettings
 
-__all__ = ["LAMBDA_TRUE", "MODE_NAMES", "Shape", "cgvmm", "contact_solution", "force_motion"]
-__version__ = "0.1.0"
+__all__ = ["LAMBDA_TRUE", "MODE_NAMES", "Camera", "Controller", "ControllerSettings", "MPPISettings", "Observation",
+           "Plant", "PushingController", "SensorSettings", "Shape", "UKFSettings", "cgvmm", "contact_solution",
+           "force_motion", "run_episode", "run_loop"]
+__version__ = "0.2.0"

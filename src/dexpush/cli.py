@@ -19,7 +19,9 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from dexpush.benchmark import ALL_METHODS, BENCH_LANES, CONDITION_KEYS, PARAMS, PLANTS, SHAPES
+from dexpush.benchmark import BENCH_LANES
+from dexpush.records import CONDITION_KEYS
+from dexpush.registry import ALL_METHODS, PARAMS, PLANTS, SHAPES
 from dexpush.tasks import MAX_STEPS
 
 __all__ = ["main"]
@@ -57,9 +59,10 @@ def _episode_files(episode, shape, out: Path, animation: bool) -> dict[str, str]
 
 
 def _cmd_run(args: argparse.Namespace) -> dict:
-    from dexpush.benchmark import make_shape, run_episode
     from dexpush.controller import ControllerSettings
     from dexpush.mppi import MPPISettings
+    from dexpush.registry import make_shape
+    from dexpush.runner import run_episode
 
     shape = make_shape(args.shape)
     settings = ControllerSettings(mppi=MPPISettings(num_samples=args.samples))
@@ -139,7 +142,8 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
     import datetime
     import platform
 
-    from dexpush.benchmark import run_benchmark, write_tables
+    from dexpush.benchmark import run_benchmark
+    from dexpush.tables import write_tables
     from dexpush.tasks import get_task
 
     tasks = [get_task(t).key for t in args.tasks.split(",")]

@@ -9,7 +9,7 @@ Each ``command`` runs one MPPI iteration (warm-started from the previous one, sh
 the control period) over the C-GVMM with the controller's current parameter estimate
 λ_pred, and returns the first input of the new nominal sequence. The result is always
 finite and inside the per-axis limit ±v_max/√2. With ``estimate_params`` the observation
-first goes to the UKF window estimator (:mod:`dexpush.ukf`), whose estimate becomes λ_pred.
+first goes to the UKF window estimator (:mod:`dexpush.estimator`), whose estimate becomes λ_pred.
 
 The loop body is one pure function, :func:`policy_step` (state, observation) → (state,
 command), which :class:`PushingController` wraps for a robot and
@@ -27,13 +27,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.checks import check_params, checked_vector
+from dexpush.checks import check_params, check_positive, checked_vector
 from dexpush.cost import CostWeights, Scene, running_cost, terminal_cost
+from dexpush.estimator import EstimatorState, UKFSettings, estimator_init, estimator_observe
 from dexpush.geometry import Shape
+from dexpush.interfaces import Observation
 from dexpush.model import LAMBDA_TRUE, Contour, integrate, step
 from dexpush.mppi import MPPIResult, MPPISettings, mppi_iteration, shift_in_time
-from dexpush.plants import Observation
-from dexpush.ukf import EstimatorState, UKFSettings, estimator_init, estimator_observe
 
 __all__ = ["ControllerSettings", "ControllerState", "PushingController", "estimate_step", "plan_step", "policy_init",
            "policy_step"]
@@ -69,14 +69,15 @@ def policy_init(params: object, settings: ControllerSettings, seed: int | jnp.nd
 
 def estimate_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray | bool, *,
                   contour: Contour, settings: ControllerSettings,
-                  frame_period: float | None = None) -> ControllerState:
+                  frame_period: jnp.ndarray | float | None = None) -> ControllerState:
     """With ``estimate``: the observation enters the UKF window and an informative full
-    window updates λ_pred (:func:`dexpush.ukf.estimator_observe`). Pure and jit-able.
+    window updates λ_pred (:func:`dexpush.estimator.estimator_observe`). Pure and jit-able.
 
-    ``frame_period`` is the time between observations (default: the control period).
+    ``frame_period`` is the time between observations (s; default: the control period).
+    It may be a traced value: a camera whose period jitters costs no recompilation.
     """
     obs = jnp.asarray(observation, jnp.float32)
-    dt = jnp.float32(frame_period or settings.mppi.control_period)
+    dt = jnp.asarray(settings.mppi.control_period if frame_period is None else frame_period, jnp.float32)
 
     def observe(s: ControllerState) -> tuple[EstimatorState, jnp.ndarray]:
         est, _ = estimator_observe(s.estimator, obs, jnp.bool_(True), contour, settings.ukf,
@@ -121,9 +122,9 @@ def policy_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.
     return plan_step(state, observation, contour=contour, scene=scene, settings=settings)
 
 
-@partial(jax.jit, static_argnames=("settings", "frame_period"))
+@partial(jax.jit, static_argnames="settings")
 def _estimate_jit(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray, contour: Contour,
-                  settings: ControllerSettings, frame_period: float | None) -> ControllerState:
+                  settings: ControllerSettings, frame_period: jnp.ndarray) -> ControllerState:
     return estimate_step(state, observation, estimate, contour=contour, settings=settings,
                          frame_period=frame_period)
 
@@ -184,19 +185,34 @@ class PushingController:
 
     def reset(self, object_pose: object | None = None, pusher_xy: object | None = None,
               seed: int | None = None) -> None:
-        """Forget the warm start and the estimate (and optionally reseed). Poses are accepted
-        for symmetry with :meth:`command` and validated, but the first command re-plans."""
-        if object_pose is not None:
-            checked_vector("object_pose", object_pose, 3)
-        if pusher_xy is not None:
-            checked_vector("pusher_xy", pusher_xy, 2)
+        """Forget the warm start and the estimate (and optionally reseed).
+
+        Given the first observation (``object_pose`` and ``pusher_xy``), it also compiles
+        the controller's programs on it, so the first :meth:`command` or :meth:`act` does
+        not pay the compile time (several seconds) inside a control loop. The state after
+        ``reset`` is the same either way.
+        """
+        q = None if object_pose is None else checked_vector("object_pose", object_pose, 3)
+        p = None if pusher_xy is None else checked_vector("pusher_xy", pusher_xy, 2)
         if seed is not None:
             self._seed = int(seed)
+        if q is not None and p is not None:
+            self._warm_up(jnp.asarray(np.concatenate([q, p]), jnp.float32))
         self.state = policy_init(self._initial_params, self.settings, self._seed)
         self.last: MPPIResult | None = None
         self._clock = 0.0                                  # start of the next control period (s)
         self._history: list[tuple[float, np.ndarray]] = []  # (issue time, command)
         self._predicted: jnp.ndarray | None = None
+
+    def _warm_up(self, obs: jnp.ndarray) -> None:
+        """Run (and so compile) estimate, plan and predict once on ``obs``; results are discarded."""
+        state = policy_init(self._initial_params, self.settings, self._seed)
+        state = _estimate_jit(state, obs, jnp.asarray(self.settings.estimate_params), self.contour, self.settings,
+                              jnp.float32(self.settings.mppi.control_period))
+        state, u, _ = _plan_jit(state, obs, self.contour, self.scene, self.settings)
+        x = _predict_jit(self.contour, obs, u, jnp.float32(self.settings.mppi.control_period), state.params,
+                         jnp.float32(self.settings.mu), 10)
+        jax.block_until_ready(x)
 
     def command(self, object_pose: object, pusher_xy: object) -> np.ndarray:
         """Pusher velocity (v_x, v_y) in m/s for an exact, current observation."""
@@ -204,7 +220,7 @@ class PushingController:
         p = checked_vector("pusher_xy", pusher_xy, 2)
         obs = jnp.asarray(np.concatenate([q, p]), jnp.float32)
         st = _estimate_jit(self.state, obs, jnp.asarray(self.settings.estimate_params), self.contour,
-                           self.settings, None)
+                           self.settings, jnp.float32(self.settings.mppi.control_period))
         self.state, u, self.last = _plan_jit(st, obs, self.contour, self.scene, self.settings)
         return self._issue(u, obs)
 
@@ -224,13 +240,15 @@ class PushingController:
         * plans from that predicted state.
         """
         T = self.settings.mppi.control_period
+        period = T if frame_period is None else check_positive("frame_period", frame_period, "s")
         if frame is not None:
+            since = float(checked_vector("frame.time", [frame.time], 1)[0])
             q = checked_vector("object_pose", frame.object_pose, 3)
             p = checked_vector("pusher_xy", frame.pusher_xy, 2)
             obs = jnp.asarray(np.concatenate([q, p]), jnp.float32)
             self.state = _estimate_jit(self.state, obs, jnp.asarray(self.settings.estimate_params), self.contour,
-                                       self.settings, frame_period)
-            x, since = obs, float(frame.time)
+                                       self.settings, jnp.float32(period))
+            x = obs
             segments = [(max(t0, since), t0 + T, u) for t0, u in self._history if t0 + T > since]
         elif self._predicted is not None:
             x, segments = self._predicted, ([(0.0, T, self._history[-1][1])] if self._history else [])

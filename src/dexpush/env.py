@@ -11,14 +11,19 @@
   realistic ``sensor`` it is the newest frame that arrived (the previous one again when
   none did).
 * **action** (float32, 2): the pusher velocity [v_x, v_y] in m/s, within ±v_max/√2 per axis
-  (eq. 10); actions outside are clipped. Each step holds it for 0.04 s (25 Hz).
+  (eq. 10); actions outside are clipped. Each step holds it for one control period
+  (0.04 s, 25 Hz, by default).
 * **reward**: −d, the decoupled distance d = √(‖p_b − p_g‖² + c·(1 − cos(θ − θ_g))) of the
   paper's eq. (9) with c = 0.1 m², on the *true* pose: 0 at the goal, about −0.67 at Task I's
   start. Dense, negative, in metres.
 * **terminated**: the task's success test (8 mm and 3°) on the true pose;
   ``info["is_success"]`` says the same. **truncated**: after ``max_steps`` (N_max = 1500).
 * ``render_mode="rgb_array"``: the scene as an (H, W, 3) uint8 image.
-* ``plant``: ``model`` (C-GVMM with λ_true) or ``physics`` (MuJoCo).
+* ``plant``: ``model`` (C-GVMM with λ_true), ``physics`` (MuJoCo), or any object that
+  satisfies :class:`dexpush.interfaces.Plant` (your own simulator or robot driver);
+  ``shape``: a name or a :class:`dexpush.Shape`.
+* ``mppi``: :class:`dexpush.MPPISettings` whose ``v_max`` bounds the actions and whose
+  ``control_period`` is how long each action is held.
 
 Each reset draws a start from the task's distribution (SPEC §5) with the environment's
 ``np_random``, so ``reset(seed=s)`` is reproducible.
@@ -32,16 +37,16 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from dexpush.benchmark import PLANTS, make_plant, make_shape
 from dexpush.cost import CostWeights
+from dexpush.geometry import Shape
+from dexpush.interfaces import Plant, check_plant
 from dexpush.mppi import MPPISettings
+from dexpush.registry import PLANTS, make_plant, make_shape
 from dexpush.se2 import wrap_angle
 from dexpush.sensing import Camera, SensorSettings
 from dexpush.tasks import MAX_STEPS, get_task, initial_conditions, is_success
 
 __all__ = ["PushEnv"]
-
-CONTROL_PERIOD = 0.04
 
 
 class PushEnv(gym.Env):
@@ -49,22 +54,27 @@ class PushEnv(gym.Env):
 
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 25}
 
-    def __init__(self, task: str = "I", shape: str = "rect", plant: str = "model",
+    def __init__(self, task: str = "I", shape: str | Shape = "rect", plant: str | Plant = "model",
                  sensor: SensorSettings | None = None, max_steps: int = MAX_STEPS,
-                 render_mode: str | None = None) -> None:
+                 render_mode: str | None = None, mppi: MPPISettings | None = None) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        if plant not in PLANTS:
-            raise ValueError(f"unknown plant {plant!r}; choose one of {', '.join(PLANTS)}")
+        if isinstance(plant, str) and plant not in PLANTS:
+            raise ValueError(f"unknown plant {plant!r}; choose one of {', '.join(PLANTS)} or pass a Plant object")
         if int(max_steps) < 1:
             raise ValueError(f"max_steps must be >= 1, got {max_steps}")
         self.task = get_task(task)
-        self.shape = make_shape(shape)
+        self.shape = make_shape(shape) if isinstance(shape, str) else shape
+        if not isinstance(self.shape, Shape):
+            raise ValueError(f"shape must be a name or a dexpush.Shape, got {shape!r}")
         self.render_mode = render_mode
         self.max_steps = int(max_steps)
-        self.camera = Camera(make_plant(plant, self.shape), sensor or SensorSettings())
+        world = make_plant(plant, self.shape) if isinstance(plant, str) else check_plant(plant)
+        self.camera = Camera(world, sensor or SensorSettings())
         self._c = CostWeights().c
-        v = MPPISettings().v_clip
+        mppi = mppi or MPPISettings()
+        self.control_period = mppi.control_period
+        v = mppi.v_clip
         self.action_space = spaces.Box(-v, v, shape=(2,), dtype=np.float32)
         lim = np.array([10.0, 10.0, np.pi, 10.0, 10.0, 10.0, 10.0, np.pi], np.float32)
         self.observation_space = spaces.Box(-lim, lim, dtype=np.float32)
@@ -101,7 +111,7 @@ class PushEnv(gym.Env):
         if a.shape != (2,) or not np.all(np.isfinite(a)):
             raise ValueError(f"action must be a finite pusher velocity (v_x, v_y), got {action!r}")
         a = np.clip(a, self.action_space.low, self.action_space.high)
-        obs = self._observation(self.camera.step(a, CONTROL_PERIOD))
+        obs = self._observation(self.camera.step(a, self.control_period))
         self._steps += 1
         reward, ok = self._reward_and_success()
         truncated = self._steps >= self.max_steps and not ok

@@ -45,14 +45,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import partial
 from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["MPPI", "MPPIResult", "MPPISettings", "mppi_iteration", "shift_in_time"]
+__all__ = ["MPPIResult", "MPPISettings", "mppi_iteration", "shift_in_time"]
 
 Dynamics = Callable[[jnp.ndarray, jnp.ndarray, jnp.ndarray, Any], jnp.ndarray]
 Cost = Callable[[jnp.ndarray, Any], jnp.ndarray]
@@ -169,39 +168,3 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
     w = jax.nn.softmax(-(S - S_min) / lam)
     U_new = jnp.einsum("k,knd->nd", w, V)
     return MPPIResult(U_new, S_min, S[0], 1.0 / jnp.sum(w * w))
-
-
-class MPPI:
-    """Long-horizon MPPI with injected dynamics and costs (in the manner of pytorch_mppi).
-
-    Args:
-        dynamics: ``dynamics(x, u, dt, params) -> x'`` batched over K samples.
-        running_cost: ``running_cost(x, context) -> (K,)``.
-        terminal_cost: ``terminal_cost(x, context) -> (K,)``.
-        settings: :class:`MPPISettings`.
-
-    ``params`` (e.g. the model parameters λ from an estimator) and ``context`` (e.g. the
-    goal and obstacles) are arguments of :meth:`optimize`, not of the constructor, so
-    they can change every step without recompiling.
-    """
-
-    def __init__(self, dynamics: Dynamics, running_cost: Cost, terminal_cost: Cost,
-                 settings: MPPISettings | None = None) -> None:
-        self.settings = settings or MPPISettings()
-        self.durations = jnp.asarray(self.settings.step_durations())
-        self._iterate = jax.jit(partial(mppi_iteration, dynamics=dynamics, running_cost=running_cost,
-                                        terminal_cost=terminal_cost, settings=self.settings))
-        self._shift = jax.jit(partial(shift_in_time, shift=self.settings.control_period))
-
-    def initial_sequence(self, dtype: Any = jnp.float32) -> jnp.ndarray:
-        """A zero nominal sequence (N_p, 2)."""
-        return jnp.zeros((self.settings.horizon, 2), dtype)
-
-    def optimize(self, key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
-                 context: Any) -> MPPIResult:
-        """One iteration from state x0: returns the improved sequence; apply ``sequence[0]``."""
-        return self._iterate(key, U, x0, params, context)
-
-    def shift(self, U: jnp.ndarray) -> jnp.ndarray:
-        """Warm start for the next control period (:func:`shift_in_time`)."""
-        return self._shift(U, self.durations.astype(U.dtype))

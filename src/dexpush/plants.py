@@ -1,7 +1,8 @@
 """Plants: the "world" a controller pushes in experiments.
 
 A plant owns the true state and answers ``reset(object_pose, pusher_xy)`` and
-``step(velocity, dt)`` with an :class:`Observation`. The controller only ever sees
+``step(velocity, dt)`` with an :class:`dexpush.interfaces.Observation`: both plants here
+satisfy the :class:`dexpush.interfaces.Plant` protocol. The controller only ever sees
 observations.
 
 :class:`ModelPlant` is the paper's numerical-experiment world (SPEC §3): the C-GVMM with
@@ -22,23 +23,10 @@ import numpy as np
 
 from dexpush.checks import check_params, checked_vector
 from dexpush.geometry import Shape
+from dexpush.interfaces import Observation
 from dexpush.model import LAMBDA_TRUE, Contour, contact_gap, integrate
 
-__all__ = ["ModelPlant", "Observation"]
-
-
-@dataclass(frozen=True)
-class Observation:
-    """What a plant reports: object pose (..., 3) [x, y, θ], pusher centre (..., 2), time (s)."""
-
-    object_pose: np.ndarray
-    pusher_xy: np.ndarray
-    time: float
-
-    @property
-    def state(self) -> np.ndarray:
-        """The 5-vector (or batch) [x_b, y_b, θ, x_c, y_c]."""
-        return np.concatenate([self.object_pose, self.pusher_xy], -1)
+__all__ = ["ModelPlant", "PhysicsPlant", "PhysicsSettings"]
 
 
 @partial(jax.jit, static_argnames="substeps")

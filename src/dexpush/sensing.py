@@ -1,9 +1,9 @@
 """Realistic sensing on any plant: pose noise, a camera rate, latency and dropped frames (SPEC §3).
 
-:class:`Camera` wraps a plant (:class:`dexpush.plants.ModelPlant` or
-:class:`dexpush.plants.PhysicsPlant`). The control loop still calls ``step(velocity, dt)``
+:class:`Camera` wraps any :class:`dexpush.interfaces.Plant` (the model plant, the MuJoCo
+plant, your own). The control loop still calls ``step(velocity, dt)``
 every control period, but gets back a :class:`Frame` only when a camera frame *arrives*
-in that period, otherwise ``None``:
+in that period (a :class:`dexpush.interfaces.Frame`), otherwise ``None``:
 
 * frames are captured every 1/``rate_hz`` seconds (``None``: at the end of every control
   period), by splitting the plant's step at the capture instants;
@@ -26,12 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from dexpush.checks import checked_vector
-from dexpush.plants import Observation
+from dexpush.interfaces import Frame, Plant
 
-__all__ = ["Camera", "Frame", "SensorSettings"]
-
-Frame = Observation   #: an observation; ``time`` is when the frame was captured
-
+__all__ = ["Camera", "SensorSettings"]
 
 @dataclass(frozen=True)
 class SensorSettings:
@@ -70,12 +67,11 @@ class Camera:
     """A plant seen through a sensor (see the module docstring).
 
     Args:
-        plant: anything with ``reset(object_pose, pusher_xy)``, ``step(velocity, dt)`` and
-            ``observe()`` returning :class:`dexpush.plants.Observation`.
+        plant: any :class:`dexpush.interfaces.Plant` (``reset``, ``step``, ``observe``, ``state``).
         settings: :class:`SensorSettings`.
     """
 
-    def __init__(self, plant: object, settings: SensorSettings | None = None) -> None:
+    def __init__(self, plant: Plant, settings: SensorSettings | None = None) -> None:
         self.plant = plant
         self.settings = settings or SensorSettings()
         self._rng = np.random.default_rng(self.settings.seed)

@@ -1,0 +1,79 @@
+"""Names the command line, the benchmark and the Gymnasium env accept, and what they build.
+
+* shapes: ``rect``, ``tee``, ``ellipse`` (SPEC §2.1 sizes);
+* parameter scenarios: ``known`` (λ_pred = λ_true) and ``unknown`` (λ_pred starts at [15, 0, 0]);
+* methods: ``mppi`` (fixed λ_pred), ``mppi-ukf`` (online estimation), ``gcs`` (plan and track);
+* plants: ``model`` (the C-GVMM with λ_true) and ``physics`` (MuJoCo).
+
+This module wires names to objects and is the only place that knows every plant and
+every controller; the modules it imports know nothing of each other.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from dexpush.controller import ControllerSettings, PushingController
+from dexpush.geometry import Shape
+from dexpush.interfaces import Controller, Plant
+from dexpush.model import LAMBDA_TRUE
+from dexpush.plants import ModelPlant, PhysicsPlant
+from dexpush.tasks import Task
+
+__all__ = ["ALL_METHODS", "METHODS", "PARAMS", "PLANTS", "SHAPES", "check_condition", "make_controller",
+           "make_plant", "make_shape"]
+
+#: λ_pred of the two parameter scenarios (paper Sec. IV-B)
+PARAMS = {"known": LAMBDA_TRUE, "unknown": (15.0, 0.0, 0.0)}
+_SHAPE_MAKERS = {"rect": Shape.rectangle, "tee": Shape.tee, "ellipse": Shape.ellipse}
+SHAPES = tuple(_SHAPE_MAKERS)
+METHODS = ("mppi", "mppi-ukf")        #: the closed-loop MPPI methods the benchmark runs by default
+ALL_METHODS = (*METHODS, "gcs")        #: plus the GCS plan-and-track baseline (Tasks I, II; dexpush.gcs)
+PLANTS = ("model", "physics")
+
+
+def make_shape(name: str) -> Shape:
+    """The standard shapes of SPEC §2.1 by name."""
+    if name not in _SHAPE_MAKERS:
+        raise ValueError(f"unknown shape {name!r}; choose one of {', '.join(SHAPES)}")
+    return _SHAPE_MAKERS[name]()
+
+
+def make_plant(name: str, shape: Shape) -> Plant:
+    """The world of an experiment: ``model`` (C-GVMM with λ_true) or ``physics`` (MuJoCo)."""
+    if name == "model":
+        return ModelPlant(shape)
+    if name == "physics":
+        return PhysicsPlant(shape)
+    raise ValueError(f"unknown plant {name!r}; choose one of {', '.join(PLANTS)}")
+
+
+def check_condition(params: str, method: str) -> None:
+    """Reject an unknown parameter scenario or method name with the list of valid ones."""
+    if params not in PARAMS:
+        raise ValueError(f"unknown params {params!r}; choose 'known' or 'unknown'")
+    if method not in ALL_METHODS:
+        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(ALL_METHODS)}")
+
+
+def make_controller(method: str, shape: Shape, task: Task, params: object, seed: int = 0,
+                    settings: ControllerSettings | None = None) -> Controller:
+    """The controller of ``method`` for ``task`` on ``shape``, starting from λ_pred = ``params``.
+
+    ``mppi`` and ``mppi-ukf`` give a :class:`PushingController` (the UKF on for
+    ``mppi-ukf``, whatever ``settings.estimate_params`` says); ``gcs`` gives a
+    :class:`dexpush.gcs.GCSTracker` (needs the ``drake`` package; no obstacles).
+    """
+    settings = settings or ControllerSettings()
+    if method in METHODS:
+        settings = replace(settings, estimate_params=method == "mppi-ukf")
+        return PushingController(shape, task.goal, params=params, obstacles=task.obstacles, settings=settings,
+                                 seed=seed)
+    if method == "gcs":
+        from dexpush.gcs import GCSTracker  # Drake loads only for this method
+
+        if task.obstacles:
+            raise ValueError(f"the GCS baseline has no obstacle support (task {task.key}); use tasks I or II")
+        return GCSTracker(shape, task.goal, params, mu=settings.mu, control_period=settings.mppi.control_period,
+                          v_max=settings.mppi.v_max)
+    raise ValueError(f"unknown method {method!r}; choose one of {', '.join(ALL_METHODS)}")

@@ -1,0 +1,70 @@
+"""The package's layering: no module imports one that is higher in meaning (docs/architecture.md)."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "src" / "dexpush"
+
+#: lowest first; a module may import only from strictly lower layers (or its own sub-package)
+LAYERS = [
+    {"fastmath", "se2", "checks", "files"},
+    {"geometry", "interfaces"},
+    {"model"},
+    {"cost", "mppi", "ukf", "tasks"},
+    {"estimator", "dataset", "viz"},
+    {"controller", "plants", "sensing", "gcs"},
+    {"simulate"},
+    {"registry"},
+    {"records"},
+    {"runner"},
+    {"tables"},
+    {"benchmark"},
+    {"env", "cli", "__init__"},
+]
+RANK = {name: i for i, layer in enumerate(LAYERS) for name in layer}
+
+
+def _modules() -> list[Path]:
+    return sorted(p for p in PACKAGE.rglob("*.py"))
+
+
+def _top(path: Path) -> str:
+    rel = path.relative_to(PACKAGE).with_suffix("")
+    return rel.parts[0]
+
+
+def _imports(path: Path) -> set[str]:
+    """The dexpush modules (first component below the package) that ``path`` imports, anywhere in it."""
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("dexpush"):
+            parts = node.module.split(".")
+            if len(parts) > 1:
+                out.add(parts[1])
+            else:  # from dexpush import x
+                out.update(a.name for a in node.names)
+        elif isinstance(node, ast.Import):
+            out.update(a.name.split(".")[1] for a in node.names if a.name.startswith("dexpush."))
+    return out
+
+
+def test_every_module_has_a_layer() -> None:
+    missing = sorted({_top(p) for p in _modules()} - set(RANK))
+    assert not missing, f"give these modules a layer in tests/test_layout.py and docs/architecture.md: {missing}"
+
+
+@pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_no_upward_or_sideways_import(path: Path) -> None:
+    me = _top(path)
+    bad = sorted(m for m in _imports(path) if m != me and RANK.get(m, -1) >= RANK[me])
+    assert not bad, f"{path.name} (layer {RANK[me]}) imports {bad} from its own layer or above"
+
+
+@pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_no_module_is_too_long(path: Path) -> None:
+    lines = len(path.read_text().splitlines())
+    assert lines <= 520, f"{path.name} has {lines} lines: split it along its seams"
