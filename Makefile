@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-slow lint bench clean
+.PHONY: demo test test-slow examples lint bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -18,11 +18,16 @@ demo: $(STAMP)
 	$(BIN)/dexpush demo --out out/demo
 
 test: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff check src tests benchmarks examples
 	$(BIN)/python -m pytest -q -m "not slow"
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
+
+examples: $(STAMP)
+	$(BIN)/python examples/own_object.py --out out/examples
+	$(BIN)/python examples/gym_env.py
+	$(BIN)/python examples/read_results.py docs/results/benchmark --out out/examples
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/mppi_speed.py

@@ -73,7 +73,7 @@ def test_tables_agree_with_records(tmp_path: Path) -> None:
 
 def test_bench_cli_runs_a_tiny_table(tmp_path: Path, capsys) -> None:
     code = main(["bench", "--tasks", "II", "--shapes", "rect", "--params", "unknown", "--methods", "mppi-ukf",
-                 "--trials", "1", "--max-steps", "5", "--quiet", "--out", str(tmp_path)])
+                 "--trials", "1", "--max-steps", "5", "--lanes", "2", "--quiet", "--out", str(tmp_path)])
     assert code == 0
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert summary["trials"] == 1 and summary["conditions"] == 1
@@ -82,6 +82,7 @@ def test_bench_cli_runs_a_tiny_table(tmp_path: Path, capsys) -> None:
     assert main(["bench", "--shapes", "star", "--out", str(tmp_path)]) == 2
 
 
+@pytest.mark.slow   # two spawned processes each import JAX and compile; nothing faster covers workers > 1
 def test_worker_processes_record_what_one_process_records(tmp_path: Path) -> None:
     common = dict(max_steps=6, lanes=2, progress=False, figures=False)
     one = run_benchmark(tmp_path / "one", ["I", "II"], ["rect"], ["unknown"], ["mppi-ukf"], [0], **common)

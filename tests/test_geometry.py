@@ -23,13 +23,14 @@ def test_table_error_bound() -> None:
         (Shape.rectangle(), functools.partial(ref.rect_radius, half_w=0.10, half_h=0.06, rho=0.01)),
         (Shape.ellipse(), functools.partial(ref.ellipse_radius, a=0.10, b=0.06, rho=0.01)),
     ]
-    for (shape, radius), tangent_tol in zip(cases, (5e-3, 1e-5)):
+    for (shape, radius), tangent_tol, n in zip(cases, (5e-3, 1e-5), (5000, 500)):
+        p = phi[:n]                 # the ellipse's reference radius is a slow bisection: 500 azimuths
         with jax.enable_x64(True):  # measure the table, not float32 round-off
-            r, dr = (np.asarray(a, np.float64) for a in shape.contour(phi))
-        expected = np.array([radius(p) for p in phi])
+            r, dr = (np.asarray(a, np.float64) for a in shape.contour(p))
+        expected = np.array([radius(a) for a in p])
         assert np.max(np.abs(np.linalg.norm(r, axis=-1) - expected)) < 1e-6, shape.name
         # tangent direction against a finite difference of the closed form
-        fd = np.array([ref.contour(radius, p)[1] for p in phi])
+        fd = np.array([ref.contour(radius, a)[1] for a in p])
         cosang = np.sum(dr * fd, -1) / np.linalg.norm(dr, axis=-1) / np.linalg.norm(fd, axis=-1)
         angle = np.arccos(np.clip(cosang, -1, 1))  # largest where a face meets a corner arc
         assert np.max(angle) < tangent_tol, shape.name
@@ -89,7 +90,7 @@ def test_bad_shapes_give_clear_errors(call, match) -> None:
         call()
 
 
-@settings(max_examples=15, deadline=None)
+@settings(max_examples=6, deadline=None)   # each example builds a 2048-entry table; the bound was set on 150
 @given(n=st.integers(3, 9), seed=st.integers(0, 10**6), rho=st.floats(0.002, 0.02))
 @example(n=4, seed=0, rho=0.002)   # the worst case found: a 190° gap between corners, ρ = 2 mm
 def test_random_convex_polygons_contour_is_at_pusher_radius(n: int, seed: int, rho: float) -> None:

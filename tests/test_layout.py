@@ -38,17 +38,24 @@ def _top(path: Path) -> str:
 
 
 def _imports(path: Path) -> set[str]:
-    """The dexpush modules (first component below the package) that ``path`` imports, anywhere in it."""
+    """The dexpush modules (first component below the package; ``__init__`` for the package root) that
+    ``path`` imports, anywhere in it; relative imports are reported as ``<relative>`` (not allowed)."""
     out = set()
     for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("dexpush"):
+        if isinstance(node, ast.ImportFrom) and node.level > 0:
+            out.add("<relative>")
+        elif isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == "dexpush":
             parts = node.module.split(".")
             if len(parts) > 1:
                 out.add(parts[1])
-            else:  # from dexpush import x
-                out.update(a.name for a in node.names)
+            else:  # from dexpush import X: a module, or a name from the package root
+                out.update(a.name if (PACKAGE / f"{a.name}.py").exists() or (PACKAGE / a.name).is_dir()
+                           else "__init__" for a in node.names)
         elif isinstance(node, ast.Import):
-            out.update(a.name.split(".")[1] for a in node.names if a.name.startswith("dexpush."))
+            for a in node.names:
+                parts = a.name.split(".")
+                if parts[0] == "dexpush":
+                    out.add(parts[1] if len(parts) > 1 else "__init__")
     return out
 
 
@@ -60,7 +67,7 @@ def test_every_module_has_a_layer() -> None:
 @pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
 def test_no_upward_or_sideways_import(path: Path) -> None:
     me = _top(path)
-    bad = sorted(m for m in _imports(path) if m != me and RANK.get(m, -1) >= RANK[me])
+    bad = sorted(m for m in _imports(path) if m != me and RANK.get(m, len(LAYERS)) >= RANK[me])
     assert not bad, f"{path.name} (layer {RANK[me]}) imports {bad} from its own layer or above"
 
 

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from dexpush import Shape
 from dexpush.plants import ModelPlant
@@ -37,16 +35,16 @@ def test_retreating_pusher_leaves_object_at_rest(rect: Shape) -> None:
     np.testing.assert_allclose(obs.object_pose, [0.1, 0.2, 0.3], atol=1e-7)  # float32 storage
 
 
-@settings(max_examples=5, deadline=None)
-@given(seed=st.integers(0, 10**6))
-def test_pusher_never_ends_a_step_more_than_1mm_inside(seed: int) -> None:
-    rng = np.random.default_rng(seed)
+def test_pusher_never_ends_a_step_more_than_1mm_inside() -> None:
+    """64 noisy walks into the T at full speed, one batched plant (one table, one compile)."""
+    rng = np.random.default_rng(0)
     plant = ModelPlant(Shape.tee())
-    n = 16
+    n = 64
     ang = rng.uniform(-np.pi, np.pi, n)
     plant.reset(np.zeros((n, 3)), 0.25 * np.stack([np.cos(ang), np.sin(ang)], -1))
     for _ in range(150):  # noisy walks towards the object at full speed
-        to_obj = -plant.observe().pusher_xy + plant.observe().object_pose[:, :2]
+        obs = plant.observe()
+        to_obj = -obs.pusher_xy + obs.object_pose[:, :2]
         v = 0.1 * to_obj / np.linalg.norm(to_obj, axis=-1, keepdims=True) + rng.normal(0, 0.03, (n, 2))
         plant.step(np.clip(v, -0.0707, 0.0707), 0.04)
     assert plant.max_penetration < 1e-3

@@ -64,7 +64,7 @@ def test_controller_copes_with_a_slow_late_lossy_camera() -> None:
     ep = run_episode("II", "rect", params="unknown", method="mppi-ukf", seed=1, max_steps=150,
                      sensor=SensorSettings.realistic())
     rec = ep.record
-    assert rec.sensor.startswith("15 Hz") and rec.steps <= 150
+    assert rec.sensor.startswith("15 Hz") and (rec.success or rec.steps == 150)
     start_err = abs(np.angle(np.exp(1j * (ep.states[0, 2] - np.pi / 2))))
     end_err = abs(np.angle(np.exp(1j * (ep.states[-1, 2] - np.pi / 2))))
     assert end_err < 0.5 * start_err

@@ -15,17 +15,18 @@ UNKNOWN = (15.0, 0.0, 0.0)
 
 
 def test_a_trial_does_not_depend_on_its_neighbours_or_its_lane() -> None:
-    task, shape = get_task("II"), make_shape("tee")
+    task, shape = get_task("II"), make_shape("rect")       # lanes=2, chunk 25: the program test_benchmark compiles
     specs = [TrialSpec(s, UNKNOWN, estimate=s % 2 == 0) for s in range(4)]
-    forward = simulate(task, shape, specs, lanes=3, max_steps=30, chunk=10)
-    backward = simulate(task, shape, specs[::-1], lanes=3, max_steps=30, chunk=10)[::-1]
-    alone = simulate(task, shape, [specs[2]], lanes=3, max_steps=30, chunk=10)[0]
+    forward = simulate(task, shape, specs, lanes=2, max_steps=30)
+    backward = simulate(task, shape, specs[::-1], lanes=2, max_steps=30)[::-1]
+    alone = simulate(task, shape, [specs[2]], lanes=2, max_steps=30)[0]
     for a, b in zip(forward, backward):
         assert a.spec == b.spec
         np.testing.assert_array_equal(a.states, b.states)
         np.testing.assert_array_equal(a.params, b.params)
     np.testing.assert_array_equal(forward[2].states, alone.states)
-    # the fourth trial waited for a free lane and still ran its full 30 steps
+    assert not np.array_equal(forward[0].params, forward[1].params)   # the UKF lanes did estimate
+    # the third and fourth trials waited for a free lane and still ran their full 30 steps
     assert [r.steps for r in forward] == [30] * 4
     assert forward[0].states.shape == (31, 5) and forward[0].commands.shape == (30, 2)
 
@@ -35,6 +36,7 @@ def test_simulate_runs_the_controller_a_robot_runs() -> None:
     task, shape = get_task("I"), make_shape("rect")
     settings = ControllerSettings(estimate_params=True)
     sim = simulate(task, shape, [TrialSpec(4, UNKNOWN, estimate=True)], settings, max_steps=40, lanes=1)[0]
+    assert np.abs(sim.params[-1] - UNKNOWN).max() > 1e-3          # the estimate moved: the check below means something
     pose, pusher = initial_conditions(task, shape, 4)
     plant = ModelPlant(shape)
     obs = plant.reset(pose, pusher)
@@ -51,10 +53,22 @@ def test_simulate_runs_the_controller_a_robot_runs() -> None:
 def test_every_result_is_reported_as_it_ends() -> None:
     seen: list[int] = []
     specs = [TrialSpec(s) for s in range(3)]
-    out = simulate(get_task("I"), make_shape("rect"), specs, lanes=2, max_steps=3, chunk=2,
+    out = simulate(get_task("I"), make_shape("rect"), specs, lanes=2, max_steps=3,
                    on_result=lambda r: seen.append(r.spec.seed))
     assert sorted(seen) == [0, 1, 2] and [r.spec.seed for r in out] == [0, 1, 2]
     assert all(r.steps == 3 and not r.success and len(r.step_ms) == 3 for r in out)
+
+    class StopRunError(Exception):
+        pass
+
+    def first(r) -> None:           # an interrupted run: the first finished trial was already reported
+        seen.append(r.spec.seed)
+        raise StopRunError
+
+    seen.clear()
+    with pytest.raises(StopRunError):
+        simulate(get_task("I"), make_shape("rect"), specs, lanes=2, max_steps=3, on_result=first)
+    assert seen == [0]
 
 
 @pytest.mark.parametrize("kwargs, match", [
@@ -79,7 +93,7 @@ def test_touching_an_obstacle_fails_the_trial_at_the_touch() -> None:
     from dexpush.tasks import Task
 
     task = Task("X", "touch", goal=(0.6, 0.0, 0.0), obstacles=((0.0, 0.0, 0.02),))
-    out = simulate(task, make_shape("rect"), [TrialSpec(0), TrialSpec(1)], lanes=2, max_steps=50, chunk=10)
+    out = simulate(task, make_shape("rect"), [TrialSpec(0), TrialSpec(1)], lanes=1, max_steps=50)
     assert all(not r.success and r.steps == 1 and len(r.states) == 2 for r in out)
 
 

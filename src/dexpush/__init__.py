@@ -7,7 +7,8 @@ The stable public API (names and settings fields kept from version 0.2 on; see d
   ``set_params``) with :class:`ControllerSettings`, :class:`MPPISettings`, :class:`UKFSettings`;
 * sensing: :class:`SensorSettings`, :class:`Camera`;
 * the loop: the :class:`Plant` and :class:`Controller` protocols, :class:`Observation`,
-  :func:`run_loop` (any plant, any controller) and :func:`run_episode` (a benchmark trial by name).
+  :func:`run_loop` (any plant, any controller, toward a :class:`Task`) and :func:`run_episode` (a
+  benchmark trial by name).
 """
 
 from dexpush.controller import ControllerSettings, PushingController
@@ -18,8 +19,9 @@ from dexpush.model import LAMBDA_TRUE, MODE_NAMES, cgvmm, contact_solution, forc
 from dexpush.mppi import MPPISettings
 from dexpush.runner import run_episode, run_loop
 from dexpush.sensing import Camera, SensorSettings
+from dexpush.tasks import Task
 
 __all__ = ["LAMBDA_TRUE", "MODE_NAMES", "Camera", "Controller", "ControllerSettings", "MPPISettings", "Observation",
-           "Plant", "PushingController", "SensorSettings", "Shape", "UKFSettings", "cgvmm", "contact_solution",
+           "Plant", "PushingController", "SensorSettings", "Shape", "Task", "UKFSettings", "cgvmm", "contact_solution",
            "force_motion", "run_episode", "run_loop"]
 __version__ = "0.2.0"
