@@ -29,7 +29,7 @@ def main() -> None:
     env = gym.make("dexpush/Push-v0", task="II", shape="rect", plant=args.plant)
     obs, info = env.reset(seed=0)
     goal = obs[5:8]
-    policy = dexpush.PushingController(dexpush.Shape.rectangle(), goal)
+    policy = dexpush.PushingController(dexpush.Shape.rectangle(), goal, params=dexpush.LAMBDA_TRUE)
     policy.reset(obs[:3], obs[3:5])
     first = None
     for t in range(args.steps):

@@ -85,7 +85,7 @@ def test_bad_settings(bad: dict) -> None:
 
 @functools.cache
 def controller() -> PushingController:
-    return PushingController(Shape.rectangle(), goal=(0.3, 0.0, 0.0),
+    return PushingController(Shape.rectangle(), goal=(0.3, 0.0, 0.0), params=(25.0, -0.01, 0.02),
                              settings=ControllerSettings(mppi=MPPISettings(num_samples=256)))
 
 

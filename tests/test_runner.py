@@ -71,7 +71,7 @@ def test_the_test_plant_and_controller_satisfy_the_protocols() -> None:
     plant.reset((0.0, 0.0, 0.0), (-0.2, 0.0))
     assert isinstance(plant, Plant)       # (Python < 3.12 reads ``state`` here: reset first)
     assert isinstance(PushRight(3), Controller)
-    assert isinstance(PushingController(Shape.rectangle(), (0.1, 0.0, 0.0)), Controller)
+    assert isinstance(PushingController(Shape.rectangle(), (0.1, 0.0, 0.0), params=(25.0, 0.0, 0.0)), Controller)
 
 
 def test_mppi_pushes_on_a_users_own_plant() -> None:

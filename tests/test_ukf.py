@@ -117,7 +117,7 @@ def test_ukf_skips_nan_and_restarts_after_a_dropped_frame() -> None:
     assert int(est.state.count) == 0
 
 
-@pytest.mark.parametrize("bad, match", [(dict(window=0), "window"), (dict(meas_pos_std=0.0), "standard deviations"),
+@pytest.mark.parametrize("bad, match", [(dict(window=0), "window"), (dict(meas_pos_std=0.0), "meas_pos_std"),
                                         (dict(lower=(0.0, -0.05, -0.05)), "bounds")])
 def test_bad_settings(bad: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):

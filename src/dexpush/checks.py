@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["check_params", "check_positive", "checked_vector"]
+__all__ = ["check_params", "check_positive", "checked_seed", "checked_vector"]
 
 
 def checked_vector(name: str, value: object, size: int, batch: bool = False) -> np.ndarray:
@@ -46,3 +46,16 @@ def check_params(params: object) -> None:
     beta = np.asarray(params)[..., 0]
     if np.any(beta <= 0):
         raise ValueError(f"β (params[..., 0]) must be > 0 (1/m), got {beta}")
+
+
+def checked_seed(seed: object) -> int:
+    """``seed`` as an int in [0, 2³²): JAX's and numpy's generators take 32 bits, so larger seeds
+    would silently repeat smaller ones."""
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
+        if isinstance(seed, float | np.floating) and float(seed).is_integer():
+            seed = int(seed)
+        else:
+            raise ValueError(f"seed must be a whole number, got {seed!r}")
+    if not 0 <= int(seed) < 2**32:
+        raise ValueError(f"seed must be in [0, 2**32), got {seed}")
+    return int(seed)

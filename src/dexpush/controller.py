@@ -1,6 +1,6 @@
 """``PushingController``: what a robot's control loop calls (SPEC §8).
 
-    ctrl = PushingController(shape, goal=(0.6, 0.3, 0.0))
+    ctrl = PushingController(shape, goal=(0.6, 0.3, 0.0), params=(25.0, -0.01, 0.02))
     ctrl.reset(object_pose, pusher_xy)
     while ...:
         vx, vy = ctrl.command(object_pose, pusher_xy)   # at 10–50 Hz
@@ -19,6 +19,7 @@ benchmark and a robot run the very same controller.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from functools import partial
 from typing import NamedTuple
@@ -27,7 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.checks import check_params, check_positive, checked_vector
+from dexpush.checks import check_params, check_positive, checked_seed, checked_vector
 from dexpush.cost import CostWeights, Scene, running_cost, terminal_cost
 from dexpush.estimator import EstimatorState, UKFSettings, estimator_init, estimator_observe
 from dexpush.geometry import Shape
@@ -49,6 +50,16 @@ class ControllerSettings:
     estimate_params: bool = False #: run the UKF (paper Fig. 5) and plan with its estimate
     ukf: UKFSettings = field(default_factory=UKFSettings)
     ukf_substeps: int = 10        #: Euler substeps per period in the UKF's window replay
+
+    def __post_init__(self) -> None:
+        for name, kind in (("mppi", MPPISettings), ("weights", CostWeights), ("ukf", UKFSettings)):
+            if not isinstance(getattr(self, name), kind):
+                raise ValueError(f"{name} must be a {kind.__name__}, got {getattr(self, name)!r}")
+        check_positive("mu", self.mu, "pusher–object friction coefficient")
+        if not isinstance(self.estimate_params, bool | np.bool_):
+            raise ValueError(f"estimate_params must be True or False, got {self.estimate_params!r}")
+        if int(self.ukf_substeps) != self.ukf_substeps or self.ukf_substeps < 1:
+            raise ValueError(f"ukf_substeps must be a whole number >= 1, got {self.ukf_substeps!r}")
 
 
 class ControllerState(NamedTuple):
@@ -147,22 +158,30 @@ class PushingController:
     Args:
         shape: the pushed object.
         goal: goal pose (x, y, θ) in the world frame.
-        params: λ_pred = [β, x_bf, y_bf] the model assumes (update with :meth:`set_params`).
+        params: λ_pred = [β, x_bf, y_bf] the model assumes (update with :meth:`set_params`);
+            without it the controller warns and uses the paper's λ_true for its box.
         obstacles: disc obstacles (c_x, c_y, radius) to avoid with object and pusher.
         settings: :class:`ControllerSettings` (MPPI knobs, cost weights, μ_c, the UKF).
         seed: seeds the MPPI sampling; equal seeds and observations give equal commands.
     """
 
-    def __init__(self, shape: Shape, goal: object, params: object = LAMBDA_TRUE,
+    def __init__(self, shape: Shape, goal: object, params: object = None,
                  obstacles: object = (), settings: ControllerSettings | None = None,
                  seed: int = 0) -> None:
         if not isinstance(shape, Shape):
             raise TypeError(f"shape must be a dexpush.Shape, got {type(shape).__name__}")
+        if settings is not None and not isinstance(settings, ControllerSettings):
+            raise ValueError(f"settings must be a ControllerSettings, got {settings!r}")
         self.shape = shape
         self.settings = settings or ControllerSettings()
         self.scene = Scene.make(shape, goal, obstacles, self.settings.weights)
         self.contour = Contour.of(shape)
-        self._seed = int(seed)
+        self._seed = checked_seed(seed)
+        if params is None:
+            warnings.warn("PushingController: no params given, so it plans with the paper's λ_true = "
+                          f"{LAMBDA_TRUE} (its 0.20 × 0.12 m box). Pass params=(β, x_bf, y_bf) for your object "
+                          "(a guess such as (15, 0, 0) with estimate_params=True works).", UserWarning, stacklevel=2)
+            params = LAMBDA_TRUE
         p = checked_vector("params", params, 3)
         check_params(p)
         self._initial_params = p
@@ -171,6 +190,22 @@ class PushingController:
     @property
     def goal(self) -> np.ndarray:
         return np.asarray(self.scene.goal)
+
+    @property
+    def rejected_frames(self) -> int:
+        """Frames the estimator's gate rejected since :meth:`reset` (non-finite, or an impossible jump)."""
+        return int(self.state.estimator.rejected)
+
+    @property
+    def estimator_resets(self) -> int:
+        """Times the estimator's state turned non-finite and was reset to the prior since :meth:`reset`."""
+        return int(self.state.estimator.resets)
+
+    def _check_estimator(self) -> None:
+        if not self._warned and self.settings.estimate_params and self.estimator_resets:
+            self._warned = True
+            warnings.warn("PushingController: the λ estimator's state turned non-finite and was reset to its prior "
+                          "(see estimator_resets); commands continue.", RuntimeWarning, stacklevel=3)
 
     @property
     def params(self) -> np.ndarray:
@@ -195,7 +230,7 @@ class PushingController:
         q = None if object_pose is None else checked_vector("object_pose", object_pose, 3)
         p = None if pusher_xy is None else checked_vector("pusher_xy", pusher_xy, 2)
         if seed is not None:
-            self._seed = int(seed)
+            self._seed = checked_seed(seed)
         if q is not None and p is not None:
             self._warm_up(jnp.asarray(np.concatenate([q, p]), jnp.float32))
         self.state = policy_init(self._initial_params, self.settings, self._seed)
@@ -203,6 +238,7 @@ class PushingController:
         self._clock = 0.0                                  # start of the next control period (s)
         self._history: list[tuple[float, np.ndarray]] = []  # (issue time, command)
         self._predicted: jnp.ndarray | None = None
+        self._warned = False
 
     def _warm_up(self, obs: jnp.ndarray) -> None:
         """Run (and so compile) estimate, plan and predict once on ``obs``; results are discarded."""
@@ -222,6 +258,7 @@ class PushingController:
         st = _estimate_jit(self.state, obs, jnp.asarray(self.settings.estimate_params), self.contour,
                            self.settings, jnp.float32(self.settings.mppi.control_period))
         self.state, u, self.last = _plan_jit(st, obs, self.contour, self.scene, self.settings)
+        self._check_estimator()
         return self._issue(u, obs)
 
     def act(self, frame: Observation | None, frame_period: float | None = None) -> np.ndarray:
@@ -259,6 +296,7 @@ class PushingController:
             if t1 - t0 > 1e-9:
                 x = _predict_jit(self.contour, x, jnp.asarray(u, jnp.float32), jnp.float32(t1 - t0), lam, mu, 10)
         self.state, u, self.last = _plan_jit(self.state, x, self.contour, self.scene, self.settings)
+        self._check_estimator()
         return self._issue(u, x)
 
     def _issue(self, u: jnp.ndarray, x: jnp.ndarray) -> np.ndarray:

@@ -23,6 +23,9 @@ Settings (:class:`UKFSettings`), and why:
 * bounds β ∈ [2, 200] 1/m, |x_bf|, |y_bf| ≤ 5 cm: physical (β = f_max/m_max of objects of
   5–50 cm; the CoF lies inside the footprint).
 * prior: the controller's λ_pred with σ = (10 1/m, 1 cm, 1 cm).
+* frame gate: 0.5 m/s and 5 rad/s between frames, plus 1 cm and 0.1 rad: five times the
+  pusher's speed limit and ten times the camera noise, so real motion always passes and a
+  glitched frame (the pusher or object half a metre off for one frame) never does.
 """
 
 from __future__ import annotations
@@ -34,11 +37,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from dexpush.checks import check_positive
 from dexpush.model import Contour, contact_gap, replay
 from dexpush.se2 import wrap_angle
 from dexpush.ukf import SigmaPoints, UKFState, clean_covariance, ukf_update
 
-__all__ = ["EstimatorState", "UKFSettings", "estimator_init", "estimator_observe", "prior_covariance",
+__all__ = ["EstimatorState", "UKFSettings", "estimator_init", "estimator_observe", "frame_gate", "prior_covariance",
            "window_update"]
 
 
@@ -59,12 +63,26 @@ class UKFSettings:
     min_var: float = 1e-10
     contact_gap_m: float = 2e-3
     min_motion_m: float = 5e-4
+    gate_speed_m_s: float = 0.5       #: frame gate: object or pusher moving faster than this between
+    gate_margin_m: float = 0.01       #: two frames (plus this margin) is an outlier, not motion
+    gate_turn_rad_s: float = 5.0      #: likewise for the object's heading (rad/s) ...
+    gate_margin_rad: float = 0.1      #: ... plus this margin
 
     def __post_init__(self) -> None:
-        if self.window < 1:
-            raise ValueError(f"window must be >= 1, got {self.window}")
-        if any(s <= 0 for s in (*self.process_std, *self.init_std, self.meas_pos_std, self.meas_heading_std)):
-            raise ValueError("standard deviations must be > 0")
+        if int(self.window) != self.window or self.window < 1:
+            raise ValueError(f"window must be a whole number >= 1, got {self.window!r}")
+        for name in ("process_std", "init_std", "lower", "upper"):
+            v = np.asarray(getattr(self, name), dtype=np.float64)
+            if v.shape != (3,) or not np.all(np.isfinite(v)):
+                raise ValueError(f"{name} must be 3 finite numbers (β, x_bf, y_bf), got {getattr(self, name)!r}")
+        for name in ("meas_pos_std", "meas_heading_std", "alpha", "min_var", "contact_gap_m", "min_motion_m",
+                     "gate_speed_m_s", "gate_margin_m", "gate_turn_rad_s", "gate_margin_rad"):
+            check_positive(name, getattr(self, name))
+        for name in ("beta_ut", "kappa"):
+            if not np.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} must be finite, got {getattr(self, name)!r}")
+        if any(s <= 0 for s in (*self.process_std, *self.init_std)):
+            raise ValueError("standard deviations must be > 0 (process_std, init_std)")
         if any(lo >= hi for lo, hi in zip(self.lower, self.upper)) or self.lower[0] <= 0:
             raise ValueError(f"bounds must satisfy 0 < β_lower and lower < upper, got {self.lower}, {self.upper}")
 
@@ -115,14 +133,28 @@ class EstimatorState(NamedTuple):
     filter: UKFState          #: λ mean and covariance
     window: jnp.ndarray       #: (M+1, 5) the last observed states, oldest first
     count: jnp.ndarray        #: consecutive observations held in ``window`` (0 … M+1)
+    prior: jnp.ndarray        #: (3,) the prior mean, which a reset returns to
+    rejected: jnp.ndarray     #: frames the gate rejected (non-finite, or an impossible jump)
+    resets: jnp.ndarray       #: times a non-finite filter state was reset to the prior
 
 
 def estimator_init(initial: jnp.ndarray, settings: UKFSettings) -> EstimatorState:
     """The prior: mean ``initial`` clipped into the bounds, covariance diag(init_std)², empty window."""
     mean = jnp.clip(jnp.asarray(initial, jnp.float32), jnp.asarray(settings.lower, jnp.float32),
                     jnp.asarray(settings.upper, jnp.float32))
+    zero = jnp.zeros((), jnp.int32)
     return EstimatorState(UKFState(mean, prior_covariance(settings)),
-                          jnp.zeros((settings.window + 1, 5), jnp.float32), jnp.zeros((), jnp.int32))
+                          jnp.zeros((settings.window + 1, 5), jnp.float32), zero, mean, zero, zero)
+
+
+def frame_gate(last: jnp.ndarray, observation: jnp.ndarray, dt: jnp.ndarray, settings: UKFSettings) -> jnp.ndarray:
+    """Whether ``observation`` (5,) may follow ``last`` (5,) after ``dt`` seconds: finite, and neither the
+    object nor the pusher moved or turned faster than the gate allows (a glitched frame does)."""
+    reach = settings.gate_speed_m_s * dt + settings.gate_margin_m
+    turn = settings.gate_turn_rad_s * dt + settings.gate_margin_rad
+    d = observation - last
+    return (jnp.all(jnp.isfinite(observation)) & (jnp.hypot(d[0], d[1]) <= reach)
+            & (jnp.abs(wrap_angle(d[2], jnp)) <= turn) & (jnp.hypot(d[3], d[4]) <= reach))
 
 
 def estimator_observe(state: EstimatorState, observation: jnp.ndarray, valid: jnp.ndarray, contour: Contour,
@@ -130,15 +162,26 @@ def estimator_observe(state: EstimatorState, observation: jnp.ndarray, valid: jn
                       substeps: int) -> tuple[EstimatorState, jnp.ndarray]:
     """Add one observed state (5,) and update λ once the window is full. Pure and jit-able.
 
-    ``valid`` False (a dropped frame, or NaN in the observation) empties the window: the
-    replay needs consecutive observations, so the next update waits for M+1 new ones.
-    Returns the new state and whether λ was updated from an informative window.
+    ``valid`` False (a dropped frame) empties the window: the replay needs consecutive
+    observations, so the next update waits for M+1 new ones. A frame that fails
+    :func:`frame_gate` against the previous one (NaN, infinity, or a jump no pusher or object
+    makes in ``dt``) is rejected the same way and counted in ``rejected``; it never reaches the
+    filter. Should the filter's mean or covariance still turn non-finite, it is reset to the
+    prior (counted in ``resets``). Returns the new state and whether λ was updated from an
+    informative window.
     """
     M1 = settings.window + 1
-    valid = valid & jnp.all(jnp.isfinite(observation))
+    finite = jnp.all(jnp.isfinite(observation))
+    passes = jnp.where(state.count > 0, frame_gate(state.window[-1], observation, dt, settings), finite)
+    rejected = state.rejected + (valid & ~passes).astype(jnp.int32)
+    valid = valid & passes
     window = jnp.concatenate([state.window[1:], jnp.where(valid, observation, 0.0)[None]])
     count = jnp.where(valid, jnp.minimum(state.count + 1, M1), 0)
     updated, informative = window_update(state.filter, contour, window, dt, mu, settings, substeps)
     ready = count >= M1
     filt = jax.tree.map(lambda a, b: jnp.where(ready, a, b), updated, state.filter)
-    return EstimatorState(filt, window, count), ready & informative
+    sound = jnp.all(jnp.isfinite(filt.mean)) & jnp.all(jnp.isfinite(filt.cov))
+    prior = UKFState(state.prior, prior_covariance(settings))
+    filt = jax.tree.map(lambda a, b: jnp.where(sound, a, b), filt, prior)
+    resets = state.resets + (~sound).astype(jnp.int32)
+    return EstimatorState(filt, window, count, state.prior, rejected, resets), ready & informative & sound

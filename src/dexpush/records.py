@@ -57,6 +57,8 @@ class EpisodeRecord:
     sensor: str = "exact"         #: what the controller saw (see dexpush.sensing)
     offline_plan_s: float | None = None   #: GCS: wall time of the offline plan (before the first step)
     replans: int | None = None            #: GCS: plans made during tracking
+    rejected_frames: int | None = None    #: frames the λ estimator's gate rejected (outliers, non-finite)
+    estimator_resets: int | None = None   #: times the λ estimator was reset to its prior (non-finite state)
 
 
 @dataclass
@@ -117,7 +119,9 @@ def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method:
         params_estimate=[round(float(v), 5) for v in result.params[-1]] if method == "mppi-ukf" and len(U) else None,
         lanes=int(lanes), plant=plant, sensor=sensor_label(sensor),
         offline_plan_s=round(float(result.plan_s[0]), 3) if result.plan_s else None,
-        replans=len(result.plan_s) - 1 if result.plan_s else None)
+        replans=len(result.plan_s) - 1 if result.plan_s else None,
+        rejected_frames=result.rejected_frames if method == "mppi-ukf" else None,
+        estimator_resets=result.estimator_resets if method == "mppi-ukf" else None)
     return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(task.goal),
                    np.asarray(task.obstacles).reshape(-1, 3))
 

@@ -93,7 +93,8 @@ def run_loop(plant: Plant, controller: Controller, task: Task, shape: Shape, obj
     bar.close()
     return TrialResult(spec or TrialSpec(0), success, np.asarray(states), np.asarray(commands).reshape(-1, 2),
                        np.asarray(lam).reshape(-1, 3), np.asarray(ms),
-                       tuple(getattr(controller, "planning_s", ())))
+                       tuple(getattr(controller, "planning_s", ())), getattr(controller, "rejected_frames", None),
+                       getattr(controller, "estimator_resets", None))
 
 
 def trial_spec(params: str, method: str, seed: int) -> TrialSpec:

@@ -68,6 +68,8 @@ class TrialResult:
     params: np.ndarray        #: (T, 3) λ_pred planned with at each step
     step_ms: np.ndarray       #: (T,) wall time of each control step, amortized over its chunk's lanes
     plan_s: tuple[float, ...] = ()   #: GCS baseline only: wall time of the offline plan, then of each replan
+    rejected_frames: int | None = None    #: frames the estimator's gate rejected (controllers with an estimator)
+    estimator_resets: int | None = None   #: times the estimator was reset to its prior after turning non-finite
 
     @property
     def steps(self) -> int:
@@ -176,13 +178,14 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
     args = (contour, scene, jnp.asarray(true_params, jnp.float32), jnp.float32(plant_mu))
     bar = tqdm(total=len(trials), desc=desc, unit="trial", disable=not progress, leave=False)
 
-    def finish(i: int, lane_success: bool) -> None:
+    def finish(i: int, lane_success: bool, counts: tuple[int, int] | None = None) -> None:
         log = logs.pop(i)
         def cat(parts: list[np.ndarray], width: int) -> np.ndarray:
             return np.concatenate(parts).reshape(-1, width) if parts else np.zeros((0, width))
 
         res = TrialResult(trials[i], lane_success, np.concatenate([log["x0"], *log["x"]]), cat(log["u"], 2),
-                          cat(log["lam"], 3), np.concatenate(log["ms"]) if log["ms"] else np.zeros(0))
+                          cat(log["lam"], 3), np.concatenate(log["ms"]) if log["ms"] else np.zeros(0),
+                          rejected_frames=counts[0] if counts else 0, estimator_resets=counts[1] if counts else 0)
         results[i] = res
         if on_result is not None:
             on_result(res)
@@ -212,6 +215,7 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
                                                  settings=settings, length=chunk, substeps=substeps)
         xs, us, lams, active = (np.asarray(a) for a in (xs, us, lams, active))
         done, success = np.asarray(batch.done), np.asarray(batch.success)
+        rejected, resets = np.asarray(batch.policy.estimator.rejected), np.asarray(batch.policy.estimator.resets)
         ms = (time.perf_counter() - t0) * 1e3 / max(int(active.sum()), 1)   # per trial-step
         # touching an obstacle ends a trial as a failure (SPEC §5); checked here on the logged
         # states rather than inside the compiled step, whose program (and rounding) it would change
@@ -229,7 +233,7 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
             logs[i]["lam"].append(lams[m, k][:n].astype(np.float64))
             logs[i]["ms"].append(np.full(n, ms))
             if len(touched) or done[k]:
-                finish(i, bool(success[k]) and not len(touched))
+                finish(i, bool(success[k]) and not len(touched), (int(rejected[k]), int(resets[k])))
                 owner[k] = None
                 batch = batch._replace(done=batch.done.at[k].set(True))   # idle until refilled
         bar.set_postfix(busy=sum(o is not None for o in owner), refresh=False)
