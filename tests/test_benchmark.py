@@ -12,6 +12,7 @@ import pytest
 from dexpush.benchmark import run_benchmark
 from dexpush.cli import main
 from dexpush.records import summarize
+from dexpush.sensing import SensorSettings
 from dexpush.tables import write_tables
 
 
@@ -35,6 +36,57 @@ def test_benchmark_resumes_without_rerunning_recorded_trials(tmp_path: Path) -> 
     path.write_text("{broken")
     with pytest.raises(ValueError, match="not a dexpush condition file"):
         run([0])
+
+
+def test_a_folder_refuses_runs_with_other_settings(tmp_path: Path) -> None:
+    run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
+                  figures=False)
+    saved = json.loads((tmp_path / "settings.json").read_text())
+    assert saved["settings"]["plant"] == "model" and saved["settings"]["lanes"] == 2
+    with pytest.raises(ValueError, match=r"other settings \(plant: 'model' there, 'physics' now"):
+        run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
+                      plant="physics", sensor=SensorSettings.realistic())
+    with pytest.raises(ValueError, match="max_steps: 2 there, 3 now"):
+        run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=3, lanes=2, progress=False)
+    assert main(["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi",
+                 "--seeds", "0", "--max-steps", "9", "--lanes", "2", "--quiet", "--out", str(tmp_path)]) == 2
+
+
+def test_an_interrupted_run_keeps_every_finished_trials_trajectory(tmp_path: Path, monkeypatch) -> None:
+    import dexpush.benchmark as bench
+
+    real = bench.simulate
+
+    def interrupted(*args, on_result, **kwargs):
+        def first_then_stop(result):
+            on_result(result)
+            raise KeyboardInterrupt
+        return real(*args, on_result=first_then_stop, **kwargs)
+
+    monkeypatch.setattr(bench, "simulate", interrupted)
+    run = partial(run_benchmark, tmp_path, ["I"], ["rect"], ["known"], ["mppi"], max_steps=3, lanes=2,
+                  progress=False)
+    with pytest.raises(KeyboardInterrupt):
+        run([0, 1])
+    recorded = [t["seed"] for t in json.loads((tmp_path / "conditions" / "I_rect_known_mppi.json").read_text())
+                ["trials"]]
+    with np.load(tmp_path / "trajectories" / "I_rect_known_mppi.npz") as npz:
+        assert len(recorded) == 1 and npz.files == [f"seed_{recorded[0]}"]
+    monkeypatch.setattr(bench, "simulate", real)
+    run([0, 1])                                   # resumed: runs the other seed only, keeps both paths
+    with np.load(tmp_path / "trajectories" / "I_rect_known_mppi.npz") as npz:
+        assert sorted(npz.files) == ["seed_0", "seed_1"]
+
+
+def test_the_tables_cover_every_trial_in_the_folder(tmp_path: Path, capsys) -> None:
+    common = ["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi",
+              "--max-steps", "2", "--lanes", "2", "--quiet", "--out", str(tmp_path)]
+    assert main([*common, "--seeds", "0-1"]) == 0
+    assert main([*common, "--seeds", "1"]) == 0        # a re-run of one seed does not shrink the table
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["trials"] == 1
+    saved = json.loads((tmp_path / "benchmark.json").read_text())
+    assert [t["seed"] for t in saved["trials"]] == [0, 1] and saved["summary"][0]["trials"] == 2
+    assert "earlier runs" in (tmp_path / "benchmark.md").read_text()
 
 
 def test_rerunning_one_seed_reproduces_its_record(tmp_path: Path) -> None:

@@ -16,10 +16,12 @@ lane count; see :mod:`dexpush.simulate` for why the lane count matters).
 
 from __future__ import annotations
 
+import importlib.metadata
 import json
 import os
 import sys
 from collections.abc import Sequence
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -29,14 +31,14 @@ from dexpush.controller import ControllerSettings
 from dexpush.cost import Scene
 from dexpush.files import atomic_path, write_json_atomic
 from dexpush.geometry import Shape
-from dexpush.records import condition_name, make_episode
-from dexpush.registry import PLANTS, check_condition, make_shape
+from dexpush.records import CONDITION_KEYS, condition_name, make_episode
+from dexpush.registry import ALL_METHODS, PARAMS, PLANTS, SHAPES, check_condition, make_shape
 from dexpush.runner import batched, run_trial, trial_spec
 from dexpush.sensing import SensorSettings
 from dexpush.simulate import TrialResult, TrialSpec, simulate
 from dexpush.tasks import MAX_STEPS, Task, get_task
 
-__all__ = ["BENCH_LANES", "run_benchmark"]
+__all__ = ["BENCH_LANES", "folder_records", "run_benchmark", "run_settings"]
 
 BENCH_LANES = 32   #: trials the benchmark advances together (one compiled program for every run)
 
@@ -64,9 +66,12 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
     otherwise (``plant="physics"`` or a realistic ``sensor``) trials run one by one through
     :func:`dexpush.runner.run_trial` (one by one). ``workers`` > 1 runs the (task, shape) groups in that many
     processes (XLA runs a scanned loop on one thread, so a 2-core machine needs 2). With
-    ``figures`` each condition's trajectories go to ``out/trajectories/<condition>.npz``
-    and a figure ``out/figures/<condition>.png``. Returns the records in condition, then
-    seed, order.
+    ``figures`` each condition's trajectories go to ``out/trajectories/<condition>.npz`` (each
+    as its trial ends, so a resumed run keeps them) and a figure
+    ``out/figures/<condition>.png``. ``out/settings.json`` records the plant, sensor,
+    controller settings, ``max_steps`` and ``lanes``; a run with other settings into the same
+    folder is refused with a ``ValueError`` that names the differences. Returns the records
+    in condition, then seed, order.
     """
     out = Path(out)
     task_keys = [get_task(t).key for t in tasks]
@@ -85,6 +90,7 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
     if skipped and progress:
         print(f"gcs: no obstacle support, skipping task {', '.join(skipped)}", file=sys.stderr, flush=True)
     seeds = sorted({int(s) for s in seeds})
+    _claim_folder(out, run_settings(plant, sensor, settings, max_steps, lanes), progress)
     groups = [(t, sh) for t in task_keys for sh in shapes]
     common = dict(params=tuple(params), methods=tuple(methods), seeds=tuple(seeds), max_steps=max_steps,
                   lanes=lanes, settings=settings, progress=progress, figures=figures, plant=plant, sensor=sensor)
@@ -115,6 +121,50 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
     return [records[name][s] for name in order for s in seeds]
 
 
+def folder_records(out: str | os.PathLike) -> list[dict]:
+    """Every trial recorded in ``out/conditions/``, in task, shape, params, method, seed order."""
+    rank = {k: i for i, k in enumerate(("I", "II", "III", *SHAPES, *PARAMS, *ALL_METHODS))}
+    records = [r for path in sorted(Path(out, "conditions").glob("*.json")) for r in _load_condition(path).values()]
+    return sorted(records, key=lambda r: (*(rank.get(r[k], len(rank)) for k in CONDITION_KEYS), r["seed"]))
+
+
+def run_settings(plant: str, sensor: SensorSettings | None, settings: ControllerSettings | None, max_steps: int,
+                 lanes: int) -> dict:
+    """Everything besides the condition and the seed that decides a trial's outcome (JSON-friendly)."""
+    sensor = sensor if sensor is not None and not sensor.perfect else None
+    return json.loads(json.dumps({"plant": plant, "sensor": asdict(sensor) if sensor else "exact",
+                                  "controller": asdict(settings or ControllerSettings()), "max_steps": int(max_steps),
+                                  "lanes": int(lanes)}))
+
+
+def _differences(a: object, b: object, prefix: str = "") -> list[str]:
+    if isinstance(a, dict) and isinstance(b, dict):
+        return [d for k in sorted(set(a) | set(b)) for d in _differences(a.get(k), b.get(k), f"{prefix}{k}.")]
+    return [] if a == b else [f"{prefix.rstrip('.')}: {a!r} there, {b!r} now"]
+
+
+def _claim_folder(out: Path, wanted: dict, progress: bool) -> None:
+    """Record the settings in ``out/settings.json``, or refuse a folder whose records were made with others.
+
+    A folder from before settings were recorded (records but no settings.json) is adopted as is.
+    """
+    path = out / "settings.json"
+    try:
+        version = importlib.metadata.version("dexpush")
+    except importlib.metadata.PackageNotFoundError:  # pragma: no cover (running from a source tree)
+        version = "unknown"
+    if path.exists():
+        saved = json.loads(path.read_text())
+        diff = _differences(saved.get("settings"), wanted)
+        if diff:
+            raise ValueError(f"{out} holds results made with other settings ({'; '.join(diff[:3])}"
+                             f"{'; …' if len(diff) > 3 else ''}); choose another --out, or delete it to start over")
+        if saved.get("version") != version and progress:
+            print(f"note: {out} was started by dexpush {saved.get('version')}, this is {version}", file=sys.stderr)
+        return
+    write_json_atomic(path, {"settings": wanted, "version": version})
+
+
 def _methods_for(task: Task, methods: Sequence[str]) -> tuple[str, ...]:
     """The methods that run on ``task``: GCS has no obstacle support (as in the paper)."""
     return tuple(m for m in methods if not (m == "gcs" and task.obstacles))
@@ -133,7 +183,6 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
     for (p, m), name in names.items():
         records[name] = _load_condition(out / "conditions" / f"{name}.json")
         specs += [(trial_spec(p, m, s), p, m) for s in seeds if s not in records[name]]
-    paths: dict[str, dict[int, np.ndarray]] = {name: {} for name in names.values()}
     owner = {id(spec): (p, m) for spec, p, m in specs}
 
     def save(result: TrialResult) -> None:
@@ -142,9 +191,10 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
         ep = make_episode(task, shape_name, shape, p, m, result, lanes if batched(plant, m, sensor) else 1, scene,
                           plant=plant, sensor=sensor, control_period=settings.mppi.control_period)
         records[name][result.spec.seed] = ep.summary()
+        if figures:   # the trajectory first: a trial whose record exists never lacks its trajectory
+            _store_trajectory(out, name, result.spec.seed, result.states.astype(np.float32))
         write_json_atomic(out / "conditions" / f"{name}.json",
                           {"trials": [records[name][s] for s in sorted(records[name])]})
-        paths[name][result.spec.seed] = result.states.astype(np.float32)
 
     desc = f"task {task.key} {shape_name}"
     queued = [spec for spec, _, m in specs if batched(plant, m, sensor)]
@@ -158,28 +208,35 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
                         position=position, leave=False):
         save(run_trial(task, shape, spec, m, plant, sensor, settings, max_steps))
     if figures:
-        for name, new in paths.items():
-            _save_trajectories(out, name, new, shape, task, records[name])
+        for name in names.values():
+            _draw_condition(out, name, shape, task, records[name])
 
 
-def _save_trajectories(out: Path, name: str, new: dict[int, np.ndarray], shape: Shape, task: Task,
-                       recs: dict[int, dict]) -> None:
-    """Merge new trajectories into the condition's npz and redraw its figure."""
+def _load_trajectories(path: Path) -> dict[int, np.ndarray]:
+    if not path.exists():
+        return {}
+    with np.load(path) as data:
+        return {int(k.split("_")[1]): data[k] for k in data.files}
+
+
+def _store_trajectory(out: Path, name: str, seed: int, states: np.ndarray) -> None:
+    """Add one trial's states to the condition's npz (rewritten atomically), as soon as it ends."""
+    path = out / "trajectories" / f"{name}.npz"
+    trajs = _load_trajectories(path)
+    trajs[seed] = states
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        np.savez_compressed(fh, **{f"seed_{s}": trajs[s] for s in sorted(trajs)})
+
+
+def _draw_condition(out: Path, name: str, shape: Shape, task: Task, recs: dict[int, dict]) -> None:
+    """The condition's figure: every recorded trial's object path."""
     import matplotlib.pyplot as plt
 
     from dexpush.viz import plot_condition
 
-    path = out / "trajectories" / f"{name}.npz"
-    trajs: dict[int, np.ndarray] = {}
-    if path.exists():
-        with np.load(path) as data:
-            trajs = {int(k.split("_")[1]): data[k] for k in data.files}
-    trajs.update(new)
+    trajs = _load_trajectories(out / "trajectories" / f"{name}.npz")
     if not trajs:
         return
-    if new:
-        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-            np.savez_compressed(fh, **{f"seed_{s}": trajs[s] for s in sorted(trajs)})
     seeds = sorted(s for s in trajs if s in recs)
     ok = sum(recs[s]["success"] for s in seeds)
     fig = plot_condition(shape, [trajs[s] for s in seeds], [recs[s]["success"] for s in seeds], np.asarray(task.goal),

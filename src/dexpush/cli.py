@@ -142,7 +142,7 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
     import datetime
     import platform
 
-    from dexpush.benchmark import run_benchmark
+    from dexpush.benchmark import folder_records, run_benchmark
     from dexpush.tables import write_tables
     from dexpush.tasks import get_task
 
@@ -167,7 +167,11 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
             "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.python_implementation()} "
                        f"{platform.python_version()}",
             "wall_s_this_invocation": round(wall, 1)}
-    files = write_tables(args.out, records, meta)
+    everything = folder_records(args.out)      # the tables cover every trial in the folder, not only this run's
+    if len(everything) > len(records):
+        meta["note"] = (f"{len(everything) - len(records)} of the {len(everything)} trials were recorded by earlier "
+                        f"runs into {args.out} with the same settings (settings.json)")
+    files = write_tables(args.out, everything, meta)
     ok = sum(r["success"] for r in records)
     n_cond = len({tuple(r[k] for k in CONDITION_KEYS) for r in records})
     return {"conditions": n_cond, "trials": len(records), "successes": ok,

@@ -33,7 +33,8 @@ def write_tables(out: str | os.PathLike, records: list[dict], meta: dict) -> dic
     def fmt(ms: list[float] | None) -> str:
         return f"{ms[0]:.3f} ± {ms[1]:.3f}" if ms else "–"
 
-    lines = [f"Produced by `{meta.get('command', '')}` on {meta.get('date', '')} ({meta.get('machine', '')}).", "",
+    lines = [f"Produced by `{meta.get('command', '')}` on {meta.get('date', '')} ({meta.get('machine', '')})."
+             + (f" {meta['note']}." if meta.get("note") else ""), "",
              "| task | shape | params | method | SR | object TL (m) | pusher TL (m) | time to goal (s) "
              "| planning ms per step (median / max) | offline plan s (median / max) | replans (mean) |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
