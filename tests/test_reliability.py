@@ -148,3 +148,59 @@ def test_a_controller_without_params_says_so() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         PushingController(SHAPE, (0.3, 0.0, 0.0), params=(15.0, 0.0, 0.0))
+
+
+def _reset_plant() -> ModelPlant:
+    plant = ModelPlant(SHAPE)
+    plant.reset((0.0, 0.0, 0.0), (-0.2, 0.0))
+    return plant
+
+
+def test_a_repeated_corner_is_merged_and_the_shape_works() -> None:
+    sq = [[-0.05, -0.05], [0.05, -0.05], [0.05, -0.05], [0.05, 0.05], [-0.05, 0.05], [-0.05, -0.05]]
+    shape = dexpush.Shape.polygon(sq)
+    assert len(shape.polygons[0]) == 4
+    assert np.all(np.isfinite(shape.radius_table)) and np.all(np.isfinite(shape.dradius_table))
+    xdot, mode = dexpush.cgvmm(shape, [0.0, 0.0, 0.0, -0.06, 0.0], [0.05, 0.0])
+    assert np.all(np.isfinite(np.asarray(xdot))) and int(mode) != 3
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: dexpush.Shape.polygon([[0, 0], [0.1, 0.1], [0.1, 0], [0, 0.1]]), "self-intersecting"),
+    (lambda: dexpush.Shape.rectangle(table_size=float("nan")), "table_size"),
+    (lambda: dexpush.Shape.ellipse(table_size=10), "table_size"),
+    (lambda: Scene.make(SHAPE, (0.3, 0, 0), [(0.1, 0.2), (0.3, 0.4), (0.5, 0.6)]), r"\(M, 3\)"),
+    (lambda: dexpush.Camera(None), "not a plant"),
+    (lambda: dexpush.SensorSettings(seed=float("nan")), "seed"),
+    (lambda: dexpush.SensorSettings(latency_s="x"), "latency_s"),
+    (lambda: _reset_plant().step((0.01, 0), "x"), "dt"),
+    (lambda: dexpush.cgvmm(SHAPE, [1e20, 0, 0, 0, 0], [0, 0]), "magnitude"),
+    (lambda: dexpush.cgvmm(SHAPE, [0, 0, 0, -0.2, 0], [0, 0], params=[2e4, 0, 0]), "β"),
+    (lambda: PushingController(SHAPE, (0.3, 0, 0), params=(25, 0, 0)).command((1e39, 0, 0), (0, 0)), "magnitude"),
+])
+def test_unusable_input_is_refused_with_the_reason(call, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        call()
+
+
+@pytest.mark.parametrize("plant", ["model", "physics"])
+def test_a_speed_that_would_tunnel_through_the_object_is_refused(plant: str) -> None:
+    from dexpush.registry import make_plant
+
+    p = make_plant(plant, SHAPE)
+    p.reset((0.0, 0.0, 0.0), (-0.2, 0.0))
+    p.step((0.1, 0.0), 0.04)                                 # the speed limit is fine
+    with pytest.raises(ValueError, match="pass through"):
+        p.step((10.0, 0.0), 0.04)
+
+
+def test_cli_errors_are_one_line_with_exit_code_2(tmp_path, capsys) -> None:
+    from dexpush.cli import main
+
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    data = tmp_path / "data"
+    data.mkdir()
+    assert main(["validate-mit", str(data), "--out", str(blocker / "sub")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("dexpush: error:") and "Traceback" not in err

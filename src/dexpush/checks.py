@@ -9,14 +9,19 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["check_params", "check_positive", "checked_seed", "checked_vector"]
+__all__ = ["MAX_BETA", "MAX_MAGNITUDE", "check_params", "check_positive", "checked_seed", "checked_vector"]
+
+
+#: the largest magnitude a coordinate, velocity or parameter may have: the model computes in
+#: float32, whose resolution at 1e6 is 6 cm (and which overflows past 3.4e38)
+MAX_MAGNITUDE = 1e6
 
 
 def checked_vector(name: str, value: object, size: int, batch: bool = False) -> np.ndarray:
     """``value`` as a finite float64 array of shape (size,), or (..., size) with ``batch``.
 
-    Raises ``ValueError`` naming the argument for wrong shapes, non-numeric input, NaN or
-    infinity.
+    Raises ``ValueError`` naming the argument for wrong shapes, non-numeric input, NaN,
+    infinity, or a magnitude above :data:`MAX_MAGNITUDE`.
     """
     try:
         a = np.asarray(value, dtype=np.float64)
@@ -27,6 +32,9 @@ def checked_vector(name: str, value: object, size: int, batch: bool = False) -> 
         raise ValueError(f"{name} must have shape {f'(..., {size})' if batch else f'({size},)'}, got {a.shape}")
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{name} contains NaN or infinite values: {a}")
+    if np.any(np.abs(a) > MAX_MAGNITUDE):
+        raise ValueError(f"{name} has a value of magnitude {np.max(np.abs(a)):.3g}, above {MAX_MAGNITUDE:g}: dexpush "
+                         "computes in float32 (SI units: metres, radians, m/s)")
     return a
 
 
@@ -41,11 +49,20 @@ def check_positive(name: str, value: object, unit: str = "") -> float:
     return v
 
 
+#: the largest β (1/m) accepted: f_max/m_max of an object 0.1 mm across
+MAX_BETA = 1e4
+
+
 def check_params(params: object) -> None:
-    """Reject λ = [β, x_bf, y_bf] with β ≤ 0 (the limit surface would be degenerate)."""
-    beta = np.asarray(params)[..., 0]
-    if np.any(beta <= 0):
-        raise ValueError(f"β (params[..., 0]) must be > 0 (1/m), got {beta}")
+    """Reject λ = [β, x_bf, y_bf] outside the model's valid range: β in (0, 1e4] 1/m (β = 0 makes the
+    limit surface degenerate; β = 1e4 is an object 0.1 mm across) and |x_bf|, |y_bf| ≤ 1 m."""
+    p = np.asarray(params)
+    beta = p[..., 0]
+    if np.any(beta <= 0) or np.any(beta > MAX_BETA):
+        raise ValueError(f"β (params[..., 0]) must be in (0, {MAX_BETA:g}] (1/m), got {beta}")
+    if np.any(np.abs(p[..., 1:]) > 1.0):
+        raise ValueError(f"the centre of friction (params[..., 1:], metres from the reference point) must be within "
+                         f"1 m, got {p[..., 1:]}")
 
 
 def checked_seed(seed: object) -> int:

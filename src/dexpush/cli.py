@@ -276,7 +276,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.seeds_text = ",".join(map(str, args.seeds))
     try:
         summary = args.func(args)
-    except ValueError as exc:  # bad input: one clear line, no traceback
+    except (ValueError, OSError) as exc:  # bad input, or a path that cannot be used: one clear line, no traceback
         print(f"dexpush: error: {exc}", file=sys.stderr)
         return 2
     print(json.dumps(summary))

@@ -69,7 +69,13 @@ class Scene:
         g = np.asarray(goal, dtype=np.float64)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ValueError(f"goal must be a finite pose (x, y, θ), got {goal!r}")
-        obs = np.asarray(obstacles, dtype=np.float64).reshape(-1, 3) if len(obstacles) else np.zeros((0, 3))
+        try:
+            obs = np.asarray(obstacles, dtype=np.float64) if len(obstacles) else np.zeros((0, 3))
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"obstacles must be discs (c_x, c_y, radius), got {obstacles!r}") from exc
+        obs = obs[None] if obs.shape == (3,) else obs
+        if obs.ndim != 2 or obs.shape[1] != 3:
+            raise ValueError(f"obstacles must be discs (c_x, c_y, radius): an (M, 3) array, got shape {obs.shape}")
         if not np.all(np.isfinite(obs)) or np.any(obs[:, 2] <= 0):
             raise ValueError(f"obstacles must be finite discs (c_x, c_y, radius > 0), got {obstacles!r}")
         a, b = shape.edges

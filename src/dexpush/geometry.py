@@ -42,23 +42,62 @@ _BISECTION_STEPS = 40
 
 
 def _as_polygon(vertices: object, name: str = "vertices") -> np.ndarray:
-    v = np.asarray(vertices, dtype=np.float64)
+    """Corners as a counter-clockwise (n, 2) float64 array: repeated corners merged, a closing
+    corner dropped; degenerate or self-intersecting polygons are refused with the reason."""
+    try:
+        v = np.asarray(vertices, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be an (n, 2) array of polygon corners, got {vertices!r}") from exc
     if v.ndim != 2 or v.shape[1] != 2:
         raise ValueError(f"{name} must be an (n, 2) array of polygon corners, got shape {v.shape}")
-    if v.shape[0] < 3:
-        raise ValueError(f"{name}: a polygon needs at least 3 corners, got {v.shape[0]}")
     if not np.all(np.isfinite(v)):
         raise ValueError(f"{name} contains NaN or infinite coordinates")
-    # drop a repeated closing vertex
-    if np.allclose(v[0], v[-1]):
-        v = v[:-1]
+    scale = max(float(np.ptp(v[:, 0])) if len(v) else 0.0, float(np.ptp(v[:, 1])) if len(v) else 0.0, 1e-300)
+    # merge repeated corners (consecutive, and a closing corner equal to the first)
+    keep = np.linalg.norm(v - np.roll(v, 1, axis=0), axis=-1) > 1e-12 * scale
+    v = v[keep] if len(v) > 1 and np.any(keep) else v[:1]
+    if v.shape[0] < 3:
+        raise ValueError(f"{name}: a polygon needs at least 3 distinct corners, got {v.shape[0]}")
+    crossing = _self_intersection(v)
+    if crossing is not None:
+        i, j = crossing
+        raise ValueError(f"{name} is self-intersecting: its edge from corner {i} and its edge from corner {j} "
+                         "cross. List the corners in order around the boundary (a simple polygon).")
     area2 = np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1])
-    scale = max(np.ptp(v[:, 0]), np.ptp(v[:, 1]), 1e-300)
     if abs(area2) < 1e-9 * scale**2:
         raise ValueError(f"{name}: degenerate polygon (zero area; are the corners collinear?)")
     if area2 < 0:  # make counter-clockwise
         v = v[::-1].copy()
     return v
+
+
+def _self_intersection(v: np.ndarray) -> tuple[int, int] | None:
+    """The first pair of non-adjacent edges (by start corner) that properly cross, or None."""
+    a, b = v, np.roll(v, -1, axis=0)
+    n = len(v)
+    d = b - a
+
+    def cross(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+        return p[..., 0] * q[..., 1] - p[..., 1] * q[..., 0]
+
+    for i in range(n):                   # one row of the pair matrix at a time: O(n) memory
+        j = np.arange(i + 2, n if i > 0 else n - 1)
+        if not len(j):
+            continue
+        o1 = cross(d[i], a[j] - a[i])
+        o2 = cross(d[i], b[j] - a[i])
+        o3 = cross(d[j], a[i] - a[j])
+        o4 = cross(d[j], b[i] - a[j])
+        hit = (o1 * o2 < 0) & (o3 * o4 < 0)
+        if np.any(hit):
+            return i, int(j[np.argmax(hit)])
+    return None
+
+
+def _check_table_size(table_size: object) -> int:
+    if isinstance(table_size, bool) or not isinstance(table_size, int | np.integer) or table_size < 64:
+        raise ValueError(f"table_size must be a whole number >= 64, got {table_size!r}")
+    return int(table_size)
 
 
 def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -142,6 +181,7 @@ class Shape:
         """
         _check_positive(a=a, b=b)
         rho = _check_pusher_radius(pusher_radius)
+        table_size = _check_table_size(table_size)
         t = np.linspace(-np.pi, np.pi, 256, endpoint=False)
         footprint = np.stack([a * np.cos(t), b * np.sin(t)], -1)
         # parallel curve q(t) = p(t) + ρ n(t); polar angle is monotone in t (convex)
@@ -184,8 +224,7 @@ class Shape:
         if ref.shape != (2,) or not np.all(np.isfinite(ref)):
             raise ValueError(f"reference must be a finite (x, y) pair, got {reference!r}")
         rho = _check_pusher_radius(pusher_radius)
-        if table_size < 64:
-            raise ValueError(f"table_size must be at least 64, got {table_size}")
+        table_size = _check_table_size(table_size)
         polys = tuple(_as_polygon(p, f"polygon {i}") - ref for i, p in enumerate(polygons))
         if not any(_inside_polygon(np.zeros((1, 2)), p)[0] for p in polys):
             raise ValueError(

@@ -21,12 +21,22 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.checks import check_params, checked_vector
+from dexpush.checks import check_params, check_positive, checked_vector
 from dexpush.geometry import Shape
 from dexpush.interfaces import Observation
 from dexpush.model import LAMBDA_TRUE, Contour, contact_gap, integrate
 
 __all__ = ["ModelPlant", "PhysicsPlant", "PhysicsSettings"]
+
+
+def _check_no_tunnelling(velocity: np.ndarray, h: float, rho: float, knob: str) -> None:
+    """Refuse a pusher speed that moves it more than its radius in one integration step: it could pass
+    through a thin part of the object without ever being seen inside it."""
+    speed = float(np.max(np.linalg.norm(np.atleast_2d(velocity), axis=-1)))
+    if speed * h > rho:
+        raise ValueError(f"a pusher speed of {speed:.3g} m/s moves the pusher {speed * h * 1e3:.3g} mm per "
+                         f"integration step, more than its radius ({rho * 1e3:.3g} mm): it could pass through the "
+                         f"object. Lower the speed (at most {rho / h:.3g} m/s) or refine {knob}.")
 
 
 @partial(jax.jit, static_argnames="substeps")
@@ -98,8 +108,8 @@ class ModelPlant:
         if v.shape[:-1] not in ((), self._x.shape[:-1]):
             raise ValueError(f"velocity batch shape {v.shape[:-1]} does not match the plant's "
                              f"{self._x.shape[:-1]}")
-        if not (np.isfinite(dt) and dt > 0):
-            raise ValueError(f"dt must be > 0, got {dt!r}")
+        dt = check_positive("dt", dt, "s")
+        _check_no_tunnelling(v, dt / self.substeps, self.shape.pusher_radius, "substeps")
         dtype = self._x.dtype
         u = jnp.broadcast_to(jnp.asarray(v, dtype), (*self._x.shape[:-1], 2))
         self._x, gap = _advance(self.contour, self._x, u, jnp.asarray(dt, dtype),
@@ -276,9 +286,9 @@ class PhysicsPlant:
         if not self._ready:
             raise RuntimeError("call reset() before step()")
         v = checked_vector("velocity", velocity, 2)
-        if not (np.isfinite(dt) and dt > 0):
-            raise ValueError(f"dt must be > 0, got {dt!r}")
+        dt = check_positive("dt", dt, "s")
         h = self.model.opt.timestep
+        _check_no_tunnelling(v, h, self.shape.pusher_radius, "settings.timestep")
         self._target += dt          # whole physics steps, rounded on the running total: no drift
         n = round(self._target / h) - self._steps
         for _ in range(n):

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dexpush.checks import checked_vector
-from dexpush.interfaces import Frame, Plant
+from dexpush.checks import check_positive, checked_vector
+from dexpush.interfaces import Frame, Plant, check_plant
 
 __all__ = ["Camera", "SensorSettings"]
 
@@ -43,14 +43,17 @@ class SensorSettings:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        for name in ("pos_std_m", "heading_std_rad", "pusher_std_m", "latency_s"):
+        for name in ("pos_std_m", "heading_std_rad", "pusher_std_m", "latency_s", "drop_prob"):
             v = getattr(self, name)
-            if not (np.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} must be >= 0, got {v!r}")
-        if self.rate_hz is not None and not (np.isfinite(self.rate_hz) and self.rate_hz > 0):
-            raise ValueError(f"rate_hz must be > 0 (or None), got {self.rate_hz!r}")
+            if isinstance(v, bool) or not isinstance(v, int | float | np.integer | np.floating) or not (
+                    np.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+        if self.rate_hz is not None:
+            check_positive("rate_hz", self.rate_hz, "Hz, or None for one frame per control period")
         if not 0.0 <= self.drop_prob < 1.0:
             raise ValueError(f"drop_prob must be in [0, 1), got {self.drop_prob!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer) or self.seed < 0:
+            raise ValueError(f"seed must be a whole number >= 0, got {self.seed!r}")
 
     @staticmethod
     def realistic(seed: int = 0) -> SensorSettings:
@@ -72,7 +75,9 @@ class Camera:
     """
 
     def __init__(self, plant: Plant, settings: SensorSettings | None = None) -> None:
-        self.plant = plant
+        self.plant = check_plant(plant)
+        if settings is not None and not isinstance(settings, SensorSettings):
+            raise ValueError(f"settings must be a SensorSettings, got {settings!r}")
         self.settings = settings or SensorSettings()
         self._rng = np.random.default_rng(self.settings.seed)
         self._pending: deque[tuple[float, Frame]] = deque()
@@ -109,8 +114,7 @@ class Camera:
     def step(self, velocity: object, dt: float = 0.04) -> Frame | None:
         """Advance the plant by ``dt`` under ``velocity``; the newest frame that arrived, or None."""
         v = checked_vector("velocity", velocity, 2)
-        if not (np.isfinite(dt) and dt > 0):
-            raise ValueError(f"dt must be > 0, got {dt!r}")
+        dt = check_positive("dt", dt, "s")
         end = self.time + dt
         while self._next_capture <= end + 1e-9:                # captures inside this period
             if self._next_capture > self.time + 1e-9:
