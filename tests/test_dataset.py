@@ -122,3 +122,26 @@ def test_validate_mit_cli(folder: Path, tmp_path: Path) -> None:
     missing = subprocess.run([sys.executable, "-m", "dexpush.cli", "validate-mit", str(tmp_path / "nope")],
                              capture_output=True, text=True, timeout=120)
     assert missing.returncode == 2 and "data folder not found" in missing.stderr
+
+
+def test_a_stationary_pusher_or_an_all_nan_stream_is_one_clear_error(tmp_path: Path, capsys) -> None:
+    from dexpush.cli import main
+
+    (tmp_path / "still").mkdir()
+    still = synthetic_push(tmp_path / "still", 0.1, 0.01, 5)
+    with h5py.File(still, "r+") as fh:
+        tip = fh["tip_pose"][()]
+        tip[:, 1:3] = tip[0, 1:3]
+        del fh["tip_pose"]
+        fh["tip_pose"] = tip
+    assert main(["validate-mit", str(tmp_path / "still"), "--out", str(tmp_path / "o1"), "--quiet"]) == 2
+    assert "stationary" in capsys.readouterr().err
+    (tmp_path / "nan").mkdir()
+    bad = synthetic_push(tmp_path / "nan", 0.3, 0.0, 7)
+    with h5py.File(bad, "r+") as fh:
+        obj = fh["object_pose"][()]
+        obj[:, 1:] = np.nan
+        del fh["object_pose"]
+        fh["object_pose"] = obj
+    assert main(["validate-mit", str(tmp_path / "nan"), "--out", str(tmp_path / "o2"), "--quiet"]) == 2
+    assert "0 finite samples" in capsys.readouterr().err

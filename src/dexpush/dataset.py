@@ -114,12 +114,15 @@ def _read_streams(path: Path) -> dict[str, np.ndarray]:
     return out
 
 
-def _clean(a: np.ndarray) -> np.ndarray:
-    """Sort by time, drop repeated timestamps and non-finite rows."""
+def _clean(a: np.ndarray, name: str, key: str) -> np.ndarray:
+    """Sort by time, drop repeated timestamps and non-finite rows; at least 10 rows must remain."""
     a = a[np.all(np.isfinite(a[:, :4] if a.shape[1] >= 4 else a), axis=1)]
     a = a[np.argsort(a[:, 0], kind="stable")]
-    keep = np.concatenate([[True], np.diff(a[:, 0]) > 0])
-    return a[keep]
+    if len(a):
+        a = a[np.concatenate([[True], np.diff(a[:, 0]) > 0])]
+    if len(a) < 10:
+        raise ValueError(f"{name}: '{key}' has {len(a)} finite samples with distinct times; at least 10 are needed")
+    return a
 
 
 def _smooth_resample(t_raw: np.ndarray, y: np.ndarray, t0: float, t1: float) -> tuple[np.ndarray, np.ndarray]:
@@ -153,7 +156,7 @@ def load_push(path: str | Path) -> Push:
     shape = m["shape"]
     if shape not in OBJECTS:
         raise ValueError(f"{path.name}: unknown object '{shape}'; known: {', '.join(OBJECTS)}")
-    streams = {k: _clean(v) for k, v in _read_streams(path).items()}
+    streams = {k: _clean(v, path.name, k) for k, v in _read_streams(path).items()}
     obj, tip = streams["object_pose"], streams["tip_pose"]
     obj = obj.copy()
     obj[:, 3] = np.unwrap(obj[:, 3], period=np.pi / 2)
@@ -332,6 +335,9 @@ def validate(pushes: list[Push], mu: float = 0.25, separation_mm: float = 3.0, s
         shape = OBJECTS[obj]()
         contour = Contour.of(shape)
         smp = _samples(ps, shape, separation_mm, stick_ratio, min_speed_mm_s)
+        if len(smp.observed) == 0:
+            raise ValueError(f"{obj}: none of its {len(ps)} push(es) has a sample with the pusher moving at least "
+                             f"{min_speed_mm_s:g} mm/s; nothing to validate (is the pusher stream stationary?)")
         beta = fit_beta(contour, smp, mu)
         lam_beta = np.array([beta, 0.0, 0.0])
         sol = contact_solution(shape, smp.states, smp.inputs, lam_beta, mu=mu)
