@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.checks import check_params, check_positive, checked_seed, checked_vector
-from dexpush.cost import CostWeights, Scene, running_cost, terminal_cost
+from dexpush.cost import CostWeights, Scene, obstacle_array, running_cost, terminal_cost
 from dexpush.estimator import EstimatorState, UKFSettings, estimator_init, estimator_observe
 from dexpush.geometry import Shape
 from dexpush.interfaces import Observation
@@ -174,7 +174,12 @@ class PushingController:
             raise ValueError(f"settings must be a ControllerSettings, got {settings!r}")
         self.shape = shape
         self.settings = settings or ControllerSettings()
-        self.scene = Scene.make(shape, goal, obstacles, self.settings.weights)
+        world_goal = checked_vector("goal", goal, 3)
+        # a local origin at the goal: float32 keeps its resolution wherever the robot's world frame is
+        self._origin = np.array([world_goal[0], world_goal[1], 0.0])
+        self._heading_ref = float(world_goal[2])
+        discs = obstacle_array(obstacles) - self._origin * [1.0, 1.0, 0.0]
+        self.scene = Scene.make(shape, world_goal - self._origin, discs, self.settings.weights)
         self.contour = Contour.of(shape)
         self._seed = checked_seed(seed)
         if params is None:
@@ -189,7 +194,15 @@ class PushingController:
 
     @property
     def goal(self) -> np.ndarray:
-        return np.asarray(self.scene.goal)
+        """The goal pose (x, y, θ) in the world frame."""
+        return np.asarray(self.scene.goal, np.float64) + self._origin
+
+    def _local(self, q: np.ndarray, p: np.ndarray) -> jnp.ndarray:
+        """World observation → the controller's frame: positions relative to the goal, heading within π of
+        the goal's (float64 arithmetic, then float32)."""
+        q = q - self._origin
+        q[2] = self._heading_ref + (q[2] - self._heading_ref + np.pi) % (2 * np.pi) - np.pi
+        return jnp.asarray(np.concatenate([q, p - self._origin[:2]]), jnp.float32)
 
     @property
     def rejected_frames(self) -> int:
@@ -232,7 +245,7 @@ class PushingController:
         if seed is not None:
             self._seed = checked_seed(seed)
         if q is not None and p is not None:
-            self._warm_up(jnp.asarray(np.concatenate([q, p]), jnp.float32))
+            self._warm_up(self._local(q, p))
         self.state = policy_init(self._initial_params, self.settings, self._seed)
         self.last: MPPIResult | None = None
         self._clock = 0.0                                  # start of the next control period (s)
@@ -254,7 +267,7 @@ class PushingController:
         """Pusher velocity (v_x, v_y) in m/s for an exact, current observation."""
         q = checked_vector("object_pose", object_pose, 3)
         p = checked_vector("pusher_xy", pusher_xy, 2)
-        obs = jnp.asarray(np.concatenate([q, p]), jnp.float32)
+        obs = self._local(q, p)
         st = _estimate_jit(self.state, obs, jnp.asarray(self.settings.estimate_params), self.contour,
                            self.settings, jnp.float32(self.settings.mppi.control_period))
         self.state, u, self.last = _plan_jit(st, obs, self.contour, self.scene, self.settings)
@@ -282,7 +295,7 @@ class PushingController:
             since = float(checked_vector("frame.time", [frame.time], 1)[0])
             q = checked_vector("object_pose", frame.object_pose, 3)
             p = checked_vector("pusher_xy", frame.pusher_xy, 2)
-            obs = jnp.asarray(np.concatenate([q, p]), jnp.float32)
+            obs = self._local(q, p)
             self.state = _estimate_jit(self.state, obs, jnp.asarray(self.settings.estimate_params), self.contour,
                                        self.settings, jnp.float32(period))
             x = obs

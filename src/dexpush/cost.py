@@ -69,15 +69,7 @@ class Scene:
         g = np.asarray(goal, dtype=np.float64)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ValueError(f"goal must be a finite pose (x, y, θ), got {goal!r}")
-        try:
-            obs = np.asarray(obstacles, dtype=np.float64) if len(obstacles) else np.zeros((0, 3))
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"obstacles must be discs (c_x, c_y, radius), got {obstacles!r}") from exc
-        obs = obs[None] if obs.shape == (3,) else obs
-        if obs.ndim != 2 or obs.shape[1] != 3:
-            raise ValueError(f"obstacles must be discs (c_x, c_y, radius): an (M, 3) array, got shape {obs.shape}")
-        if not np.all(np.isfinite(obs)) or np.any(obs[:, 2] <= 0):
-            raise ValueError(f"obstacles must be finite discs (c_x, c_y, radius > 0), got {obstacles!r}")
+        obs = obstacle_array(obstacles)
         a, b = shape.edges
         r_s = w.r_s if w.r_s_clearance is None else max(w.r_s, shape.bounding_radius + w.r_s_clearance)
         return Scene(jnp.asarray(g), jnp.asarray(obs), jnp.asarray(a), jnp.asarray(b), jnp.asarray(r_s),
@@ -86,6 +78,21 @@ class Scene:
 
 jax.tree_util.register_dataclass(
     Scene, data_fields=["goal", "obstacles", "edge_a", "edge_b", "r_s"], meta_fields=["pusher_radius"])
+
+
+def obstacle_array(obstacles: object) -> np.ndarray:
+    """Disc obstacles as a float64 (M, 3) array [c_x, c_y, radius]; one disc may be given as (3,).
+    Anything else (e.g. (x, y) pairs) is refused with a ``ValueError``."""
+    try:
+        obs = np.asarray(obstacles, dtype=np.float64) if len(obstacles) else np.zeros((0, 3))
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"obstacles must be discs (c_x, c_y, radius), got {obstacles!r}") from exc
+    obs = obs[None] if obs.shape == (3,) else obs
+    if obs.ndim != 2 or obs.shape[1] != 3:
+        raise ValueError(f"obstacles must be discs (c_x, c_y, radius): an (M, 3) array, got shape {obs.shape}")
+    if not np.all(np.isfinite(obs)) or np.any(obs[:, 2] <= 0):
+        raise ValueError(f"obstacles must be finite discs (c_x, c_y, radius > 0), got {obstacles!r}")
+    return obs
 
 
 def _distance_sq(x: jnp.ndarray, y: jnp.ndarray, th: jnp.ndarray, goal: jnp.ndarray, c: float) -> jnp.ndarray:
