@@ -120,3 +120,23 @@ def test_contour_works_under_jit_and_vmap() -> None:
     assert r2.shape == (3, 4, 2) and dr2.shape == (3, 4, 2)
     np.testing.assert_allclose(np.asarray(r1), np.asarray(r2), rtol=1e-6)
     np.testing.assert_allclose(np.asarray(dr1), np.asarray(dr2), atol=1e-5)  # float32 cancellation
+
+
+def test_a_polygon_of_a_thousand_corners_builds_and_its_contour_is_at_the_pusher_radius() -> None:
+    from dexpush.geometry import distance_to_polygons
+
+    ang = np.sort(np.random.default_rng(0).uniform(-np.pi, np.pi, 1000))
+    r = 0.08 + 0.02 * np.sin(5 * ang)
+    shape = Shape.polygon(np.stack([r * np.cos(ang), r * np.sin(ang)], -1))
+    assert len(shape.polygons[0]) == 1000
+    phi = np.linspace(-np.pi, np.pi, 997, endpoint=False)
+    with jax.enable_x64(True):
+        pts = np.asarray(shape.contour(phi)[0], np.float64)
+    d = distance_to_polygons(pts, shape.polygons)
+    assert np.max(np.abs(d - shape.pusher_radius)) < 1e-5
+
+
+def test_a_ray_through_a_concave_corner_is_no_special_case() -> None:
+    """An L whose reference sees its inner corner exactly along the 45° ray."""
+    ell = Shape.polygon([[0, 0], [0.1, 0], [0.1, 0.03], [0.03, 0.03], [0.03, 0.1], [0, 0.1]], reference=(0.015, 0.015))
+    assert np.all(np.isfinite(ell.radius_table)) and np.all(ell.radius_table > 0)

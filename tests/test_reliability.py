@@ -241,3 +241,14 @@ def test_results_do_not_depend_on_where_the_world_origin_is() -> None:
     a, b = runs
     assert a.success and b.success and len(a.commands) == len(b.commands)
     np.testing.assert_allclose(a.commands, b.commands, atol=1e-6)
+
+
+def test_the_physics_plant_refuses_a_concave_piece_instead_of_using_its_hull() -> None:
+    from dexpush.plants import PhysicsPlant
+
+    ell = [[0, 0], [0.1, 0], [0.1, 0.03], [0.03, 0.03], [0.03, 0.1], [0, 0.1]]
+    with pytest.raises(ValueError, match="not convex"):
+        PhysicsPlant(dexpush.Shape.polygon(ell, reference=(0.015, 0.015)))
+    pieces = dexpush.Shape.union([[[0, 0], [0.1, 0], [0.1, 0.03], [0, 0.03]], [[0, 0], [0.03, 0], [0.03, 0.1],
+                                                                             [0, 0.1]]], reference=(0.015, 0.015))
+    PhysicsPlant(pieces).reset((0.0, 0.0, 0.0), (-0.1, 0.0))            # the same L as convex pieces works

@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.checks import check_params, check_positive, checked_vector
-from dexpush.geometry import Shape
+from dexpush.geometry import Shape, is_convex
 from dexpush.interfaces import Observation
 from dexpush.model import LAMBDA_TRUE, Contour, contact_gap, integrate
 
@@ -238,6 +238,11 @@ class PhysicsPlant:
     def __init__(self, shape: Shape, settings: PhysicsSettings | None = None) -> None:
         import mujoco
 
+        concave = [i for i, poly in enumerate(shape.polygons) if not is_convex(poly)]
+        if concave:
+            raise ValueError(f"the physics plant builds each polygon of the shape as one convex prism, and polygon(s) "
+                             f"{concave} of {shape.name!r} are not convex (MuJoCo would use their convex hull); "
+                             "give the shape as a union of convex pieces: Shape.union([piece, piece, ...])")
         self._mj = mujoco
         self.shape = shape
         self.settings = settings or PhysicsSettings()

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dexpush.gcs.settings import PlanningError
-from dexpush.geometry import Shape, distance_to_polygons
+from dexpush.geometry import Shape, distance_to_polygons, is_convex
 
 __all__ = ["Face", "Region", "contact_faces", "free_regions", "region_graph", "region_route"]
 
@@ -49,12 +49,6 @@ class Face:
         return np.array([self.a[i] + sigma * self.d[i] + rho * self.n_out[i] for i in range(2)])
 
 
-def _is_convex_ccw(poly: np.ndarray) -> bool:
-    e = np.roll(poly, -1, axis=0) - poly
-    cross = e[:, 0] * np.roll(e, -1, axis=0)[:, 1] - e[:, 1] * np.roll(e, -1, axis=0)[:, 0]
-    return bool(np.all(cross > -1e-12))
-
-
 def contact_faces(shape: Shape, sigma_margin: float = 0.005, samples: int = 801) -> list[Face]:
     """The faces a point pusher can push on: the outer boundary of the union of convex pieces.
 
@@ -64,7 +58,7 @@ def contact_faces(shape: Shape, sigma_margin: float = 0.005, samples: int = 801)
     ``sigma_margin`` at both ends, is a face.
     """
     polys = shape.polygons
-    if not all(_is_convex_ccw(p) for p in polys):
+    if not all(is_convex(p) for p in polys):
         raise PlanningError(
             f"the GCS planner needs the footprint as a union of convex pieces; shape {shape.name!r} "
             "has a non-convex piece (build it with Shape.union of convex polygons)")
