@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MAX_BETA", "MAX_MAGNITUDE", "check_params", "check_positive", "checked_seed", "checked_vector"]
+__all__ = ["MAX_BETA", "MAX_MAGNITUDE", "check_params", "check_positive", "check_values", "checked_seed",
+           "checked_vector"]
 
 
 #: the largest magnitude a coordinate, velocity or parameter may have: the model computes in
@@ -30,6 +31,11 @@ def checked_vector(name: str, value: object, size: int, batch: bool = False) -> 
     ok = (a.ndim >= 1 and a.shape[-1] == size) if batch else a.shape == (size,)
     if not ok:
         raise ValueError(f"{name} must have shape {f'(..., {size})' if batch else f'({size},)'}, got {a.shape}")
+    return check_values(name, a)
+
+
+def check_values(name: str, a: np.ndarray) -> np.ndarray:
+    """``a`` if every value is finite and at most :data:`MAX_MAGNITUDE` in magnitude, else a ``ValueError``."""
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{name} contains NaN or infinite values: {a}")
     if np.any(np.abs(a) > MAX_MAGNITUDE):

@@ -175,7 +175,9 @@ class PushingController:
         self.shape = shape
         self.settings = settings or ControllerSettings()
         world_goal = checked_vector("goal", goal, 3)
-        # a local origin at the goal: float32 keeps its resolution wherever the robot's world frame is
+        self._goal = world_goal
+        # a local origin at the goal: float32 keeps its resolution wherever the robot's world frame is;
+        # ``scene`` (goal, obstacles) is in that frame, and so is everything the compiled steps see
         self._origin = np.array([world_goal[0], world_goal[1], 0.0])
         self._heading_ref = float(world_goal[2])
         discs = obstacle_array(obstacles) - self._origin * [1.0, 1.0, 0.0]
@@ -195,7 +197,7 @@ class PushingController:
     @property
     def goal(self) -> np.ndarray:
         """The goal pose (x, y, θ) in the world frame."""
-        return np.asarray(self.scene.goal, np.float64) + self._origin
+        return self._goal.copy()
 
     def _local(self, q: np.ndarray, p: np.ndarray) -> jnp.ndarray:
         """World observation → the controller's frame: positions relative to the goal, heading within π of

@@ -35,7 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush import fastmath
-from dexpush.checks import MAX_MAGNITUDE, check_params, checked_vector
+from dexpush.checks import check_params, check_values, checked_vector
 from dexpush.geometry import Shape, contour_lookup
 
 __all__ = [
@@ -340,12 +340,7 @@ def _float_arrays(**arrays: object) -> tuple[jnp.ndarray, ...]:
             raise ValueError(f"{name} must be a numeric array, got {type(a).__name__}") from exc
         if arr.dtype == object or not np.issubdtype(arr.dtype, np.number):
             raise ValueError(f"{name} must be a numeric array, got dtype {arr.dtype}")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name} contains NaN or infinite values: {arr!r}")
-        if np.any(np.abs(arr) > MAX_MAGNITUDE):
-            raise ValueError(f"{name} has a value of magnitude {np.max(np.abs(arr)):.3g}, above {MAX_MAGNITUDE:g}: "
-                             "the model computes in float32 (SI units)")
-        out.append(arr)
+        out.append(check_values(name, arr))
     # float64 numpy input stays float64 only when jax_enable_x64 is on; ints become float
     jarrs = [jnp.asarray(a) for a in out]
     dtype = jnp.result_type(*[a.dtype for a in jarrs if jnp.issubdtype(a.dtype, jnp.floating)]
