@@ -67,3 +67,9 @@ def test_bad_arguments_give_one_clear_line(args, message, tmp_path: Path) -> Non
     assert proc.returncode == 2
     assert message in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+def test_version_is_printed(capsys) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0 and capsys.readouterr().out.startswith("dexpush 0.")

@@ -179,6 +179,15 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
             "files": files}
 
 
+def _version() -> str:
+    import importlib.metadata
+
+    try:
+        return importlib.metadata.version("dexpush")
+    except importlib.metadata.PackageNotFoundError:  # pragma: no cover (a source tree without install)
+        return "unknown"
+
+
 def _positive_int(text: str) -> int:
     v = int(text)
     if v < 1:
@@ -196,6 +205,7 @@ def _seed(text: str) -> int:
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="dexpush", description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = p.add_subparsers(dest="command", required=True)
 
     def sensor_args(sp: argparse.ArgumentParser) -> None:
@@ -240,9 +250,11 @@ def build_parser() -> argparse.ArgumentParser:
     run.set_defaults(func=_cmd_run)
 
     bench = sub.add_parser("bench", help="the paper's Sec. IV-B table (batched, resumable)")
-    bench.add_argument("--tasks", default="I,II,III")
-    bench.add_argument("--shapes", default="rect,tee")
-    bench.add_argument("--params", default="known,unknown")
+    bench.add_argument("--tasks", default="I,II,III", help="comma-separated tasks from I, II, III (default I,II,III)")
+    bench.add_argument("--shapes", default="rect,tee",
+                       help=f"comma-separated shapes from {', '.join(SHAPES)} (default rect,tee)")
+    bench.add_argument("--params", default="known,unknown",
+                       help="comma-separated: known (λ_pred = λ_true), unknown (λ_pred starts at [15, 0, 0])")
     bench.add_argument("--methods", default="mppi,mppi-ukf",
                        help="comma-separated, from mppi, mppi-ukf, gcs (gcs skips task III: no obstacles)")
     bench.add_argument("--trials", type=_positive_int, default=30, help="seeds 0 … trials−1 (default 30)")

@@ -49,8 +49,8 @@ class EpisodeRecord:
     final_error_deg: float
     collisions: int               #: control steps that ended in collision with an obstacle
     contact_switches: int         #: contact on/off transitions
-    planning_ms_median: float     #: batched runs: wall time of one control step (UKF + MPPI + plant)
-    planning_ms_max: float        #: amortized over the batch; sensed runs: the controller's time per command
+    planning_ms_median: float     #: batched runs: a lane's share of a control step's wall time (UKF + MPPI +
+    planning_ms_max: float        #: plant; chunk time / (lanes × steps)); other runs: the controller's time per act
     params_estimate: list[float] | None = None
     lanes: int = 1                #: lanes of the batch it ran in (needed to reproduce it exactly)
     plant: str = "model"          #: the world: model (C-GVMM, λ_true), physics (MuJoCo), or a user's plant

@@ -66,7 +66,7 @@ class TrialResult:
     states: np.ndarray        #: (T+1, 5) true states, the start included
     commands: np.ndarray      #: (T, 2) pusher velocities
     params: np.ndarray        #: (T, 3) λ_pred planned with at each step
-    step_ms: np.ndarray       #: (T,) wall time of each control step, amortized over its chunk's lanes
+    step_ms: np.ndarray       #: (T,) wall time of each control step: the chunk's time / (lanes × chunk length)
     plan_s: tuple[float, ...] = ()   #: GCS baseline only: wall time of the offline plan, then of each replan
     rejected_frames: int | None = None    #: frames the estimator's gate rejected (controllers with an estimator)
     estimator_resets: int | None = None   #: times the estimator was reset to its prior after turning non-finite
@@ -216,7 +216,8 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
         xs, us, lams, active = (np.asarray(a) for a in (xs, us, lams, active))
         done, success = np.asarray(batch.done), np.asarray(batch.success)
         rejected, resets = np.asarray(batch.policy.estimator.rejected), np.asarray(batch.policy.estimator.resets)
-        ms = (time.perf_counter() - t0) * 1e3 / max(int(active.sum()), 1)   # per trial-step
+        # each lane's share of the step's wall time: a trial pays for its own lane, not for idle ones
+        ms = (time.perf_counter() - t0) * 1e3 / (n_lanes * chunk)
         # touching an obstacle ends a trial as a failure (SPEC §5); checked here on the logged
         # states rather than inside the compiled step, whose program (and rounding) it would change
         hits = np.asarray(_collides(jnp.asarray(xs), scene)) if len(task.obstacles) else np.zeros(active.shape, bool)
