@@ -125,6 +125,8 @@ def test_act_takes_any_frame_period_without_recompiling() -> None:
     (lambda: UKFSettings(process_std=(0.5, float("nan"), 5e-4)), "process_std"),
     (lambda: UKFSettings(alpha=float("nan")), "alpha"),
     (lambda: UKFSettings(gate_speed_m_s=0.0), "gate_speed_m_s"),
+    (lambda: ControllerSettings(weights=dexpush.controller.CostWeights(q_f=float("nan"))), "q_f"),
+    (lambda: dexpush.controller.CostWeights(r_s=-0.2), "r_s"),
     (lambda: PushingController(SHAPE, (0, 0, 0), params=(25, 0, 0), seed=float("nan")), "seed"),
     (lambda: PushingController(SHAPE, (0, 0, 0), params=(25, 0, 0), seed=2**32), "seed"),
 ])

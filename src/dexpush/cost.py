@@ -19,6 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush import fastmath
+from dexpush.checks import check_positive
 from dexpush.geometry import Shape
 from dexpush.model import State, components
 
@@ -38,6 +39,17 @@ class CostWeights:
     #: raise r_s to R_max + r_s_clearance (m) for objects whose inflated contour reaches
     #: beyond r_s − r_s_clearance; None keeps r_s as given. See :meth:`Scene.make`.
     r_s_clearance: float | None = 0.05
+
+    def __post_init__(self) -> None:
+        for name in ("q_f", "q_r1", "q_r2", "c"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float | np.integer | np.floating) or not (
+                    np.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+        for name in ("r_s", "C_pen"):
+            check_positive(name, getattr(self, name))
+        if self.r_s_clearance is not None and not (np.isfinite(self.r_s_clearance) and self.r_s_clearance >= 0):
+            raise ValueError(f"r_s_clearance must be None or a finite number >= 0 (m), got {self.r_s_clearance!r}")
 
 
 @dataclass(frozen=True)
