@@ -73,3 +73,19 @@ def test_version_is_printed(capsys) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
     assert exc.value.code == 0 and capsys.readouterr().out.startswith("dexpush 0.")
+
+
+def test_the_cli_caches_compiled_programs_for_the_next_run(tmp_path: Path) -> None:
+    import os
+
+    cache = tmp_path / "cache"
+    env = {k: v for k, v in os.environ.items() if k != "DEXPUSH_NO_CACHE"} | {"DEXPUSH_CACHE_DIR": str(cache)}
+    args = [sys.executable, "-m", "dexpush.cli", "run", "--max-steps", "2", "--no-animation", "--quiet"]
+    first = subprocess.run([*args, "--out", str(tmp_path / "a")], capture_output=True, text=True, env=env, timeout=600)
+    assert first.returncode == 1, first.stderr            # 2 steps cannot reach the goal
+    entries = sorted(p.name for p in cache.iterdir())
+    assert entries                                         # the compiled programs were written
+    second = subprocess.run([*args, "--out", str(tmp_path / "b")], capture_output=True, text=True, env=env,
+                            timeout=600)
+    assert second.returncode == 1, second.stderr
+    assert sorted(p.name for p in cache.iterdir()) == entries   # and found again: nothing new compiled

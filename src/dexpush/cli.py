@@ -284,6 +284,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if not os.environ.get("DEXPUSH_NO_CACHE"):
+        from dexpush import compile_cache
+
+        try:
+            compile_cache.enable()          # a second run loads the compiled controller instead of compiling
+        except OSError as exc:              # an unwritable cache folder only costs compile time
+            print(f"dexpush: note: no compilation cache ({exc})", file=sys.stderr)
     if getattr(args, "seeds", None) is not None:
         args.seeds_text = ",".join(map(str, args.seeds))
     try:
