@@ -120,7 +120,12 @@ def test_pusher_never_pulls_and_force_in_cone(seed: int, name: str) -> None:
 @given(seed=st.integers(0, 2**31 - 1), name=st.sampled_from(["rect", "tee", "ellipse"]))
 def test_mode_partition_exclusive_and_exhaustive(seed: int, name: str) -> None:
     """The stick, CCW and CW cones of Γ⁻¹w tile the half-plane where the pusher moves into
-    the object (n̂·v > 0); the rest is free. Exactly one mode holds for each sample."""
+    the object (n̂·v > 0); the rest is free. Exactly one mode holds for each sample.
+
+    Known counterexample, found with HYPOTHESIS_PROFILE=explore (and failing on 0.1.0 too): seed
+    170 on the tee, sample 88 (φ = −1.43 rad, the stem's bottom corner, β = 48): a nearly
+    tangential push (n̂·v/|v| = −0.006 with n̂ from the table) is classified stick, in float32
+    and float64 alike, and falls in the stick and the CW cone at once. Not yet explained."""
     shape = shapes()[name]
     x, u, lam, _ = contact_states(shape, np.random.default_rng(seed), 256, depth=1e-4)
     sol = contact_solution(shape, x, u, lam, mu=0.3)
