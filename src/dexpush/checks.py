@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MAX_BETA", "MAX_MAGNITUDE", "check_params", "check_positive", "check_values", "checked_seed",
-           "checked_vector"]
+__all__ = ["MAX_BETA", "MAX_MAGNITUDE", "check_nonnegative", "check_params", "check_positive", "check_values",
+           "checked_seed", "checked_vector"]
 
 
 #: the largest magnitude a coordinate, velocity or parameter may have: the model computes in
@@ -44,14 +44,28 @@ def check_values(name: str, a: np.ndarray) -> np.ndarray:
     return a
 
 
-def check_positive(name: str, value: object, unit: str = "") -> float:
-    """``value`` as a float that is finite and > 0, else a ``ValueError`` naming it."""
+def _number(name: str, value: object) -> float:
+    if isinstance(value, bool | str | bytes):
+        raise ValueError(f"{name} must be a number, got {value!r}")
     try:
-        v = float(value)  # type: ignore[arg-type]
+        return float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name} must be a number, got {value!r}") from exc
+
+
+def check_positive(name: str, value: object, unit: str = "") -> float:
+    """``value`` as a float that is finite and > 0, else a ``ValueError`` naming it."""
+    v = _number(name, value)
     if not (np.isfinite(v) and v > 0):
-        raise ValueError(f"{name} must be a finite number > 0{f' ({unit})' if unit else ''}, got {value!r}")
+        raise ValueError(f"{name} must be a positive finite number{f' ({unit})' if unit else ''}, got {value!r}")
+    return v
+
+
+def check_nonnegative(name: str, value: object, unit: str = "") -> float:
+    """``value`` as a float that is finite and >= 0, else a ``ValueError`` naming it."""
+    v = _number(name, value)
+    if not (np.isfinite(v) and v >= 0):
+        raise ValueError(f"{name} must be a finite number >= 0{f' ({unit})' if unit else ''}, got {value!r}")
     return v
 
 

@@ -19,7 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush import fastmath
-from dexpush.checks import check_positive
+from dexpush.checks import check_nonnegative, check_positive
 from dexpush.geometry import Shape
 from dexpush.model import State, components
 
@@ -42,14 +42,11 @@ class CostWeights:
 
     def __post_init__(self) -> None:
         for name in ("q_f", "q_r1", "q_r2", "c"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float | np.integer | np.floating) or not (
-                    np.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+            check_nonnegative(name, getattr(self, name))
         for name in ("r_s", "C_pen"):
             check_positive(name, getattr(self, name))
-        if self.r_s_clearance is not None and not (np.isfinite(self.r_s_clearance) and self.r_s_clearance >= 0):
-            raise ValueError(f"r_s_clearance must be None or a finite number >= 0 (m), got {self.r_s_clearance!r}")
+        if self.r_s_clearance is not None:
+            check_nonnegative("r_s_clearance", self.r_s_clearance, "m, or None")
 
 
 @dataclass(frozen=True)

@@ -37,6 +37,8 @@ from dataclasses import dataclass, field
 import jax.numpy as jnp
 import numpy as np
 
+from dexpush.checks import check_positive
+
 __all__ = ["Shape", "contour_lookup", "distance_to_polygons", "hermite_coefficients"]
 
 
@@ -327,8 +329,7 @@ def contour_lookup(coefficients: jnp.ndarray, phi: jnp.ndarray) -> tuple[jnp.nda
 # ---------------------------------------------------------------------- construction helpers
 def _check_positive(**values: float) -> None:
     for k, v in values.items():
-        if not (np.isfinite(v) and v > 0):
-            raise ValueError(f"{k} must be a positive finite length in metres, got {v!r}")
+        check_positive(k, v, "a length in metres")
 
 
 def _check_pusher_radius(rho: float) -> float:

@@ -51,6 +51,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from dexpush.checks import check_nonnegative, check_positive
+
 __all__ = ["MPPIResult", "MPPISettings", "mppi_iteration", "shift_in_time"]
 
 Dynamics = Callable[[jnp.ndarray, jnp.ndarray, jnp.ndarray, Any], jnp.ndarray]
@@ -82,11 +84,8 @@ class MPPISettings:
         if not 0.0 <= self.refine_fraction <= 1.0:
             raise ValueError(f"refine_fraction must be in [0, 1], got {self.refine_fraction!r}")
         for name in ("dt0", "noise_sigma", "refine_sigma", "v_max", "temperature", "control_period"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be > 0, got {v!r}")
-        if not (np.isfinite(self.control_cost) and self.control_cost >= 0):
-            raise ValueError(f"control_cost must be >= 0, got {self.control_cost!r}")
+            check_positive(name, getattr(self, name))
+        check_nonnegative("control_cost", self.control_cost)
 
     @property
     def v_clip(self) -> float:

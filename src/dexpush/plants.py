@@ -139,9 +139,7 @@ class PhysicsSettings:
     def __post_init__(self) -> None:
         for name in ("mass", "height", "table_friction", "pusher_friction", "timestep", "support_spacing",
                      "support_radius", "impratio"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be > 0, got {v!r}")
+            check_positive(name, getattr(self, name))
 
 
 def _support_points(shape: Shape, spacing: float) -> np.ndarray:

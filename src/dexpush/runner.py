@@ -37,7 +37,7 @@ from dexpush.sensing import Camera, SensorSettings
 from dexpush.simulate import TrialResult, TrialSpec, simulate
 from dexpush.tasks import MAX_STEPS, Task, get_task, initial_conditions, is_success
 
-__all__ = ["run_episode", "run_loop", "run_trial", "trial_spec"]
+__all__ = ["batched", "plant_name", "run_episode", "run_loop", "run_trial", "trial_spec"]
 
 
 def run_loop(plant: Plant, controller: Controller, task: Task, shape: Shape, object_pose: object,
@@ -97,6 +97,11 @@ def run_loop(plant: Plant, controller: Controller, task: Task, shape: Shape, obj
                        getattr(controller, "estimator_resets", None))
 
 
+def plant_name(plant: str | Plant) -> str:
+    """How a record names the plant: its registry name, or the class name of a plant object."""
+    return plant if isinstance(plant, str) else type(plant).__name__
+
+
 def trial_spec(params: str, method: str, seed: int) -> TrialSpec:
     """The :class:`TrialSpec` of one benchmark trial."""
     check_condition(params, method)
@@ -128,10 +133,9 @@ def run_trial(task: Task, shape: Shape, spec: TrialSpec, method: str, plant: str
     world = make_plant(plant, shape) if isinstance(plant, str) else check_plant(plant)
     controller = make_controller(method, shape, task, spec.params, spec.seed, settings)
     pose, pusher = initial_conditions(task, shape, spec.seed)
-    name = plant if isinstance(plant, str) else type(plant).__name__
     return run_loop(world, controller, task, shape, pose, pusher, sensor=sensor,
                     control_period=settings.mppi.control_period, max_steps=max_steps, spec=spec, progress=progress,
-                    desc=f"task {task.key} {shape.name} ({method}, {name})")
+                    desc=f"task {task.key} {shape.name} ({method}, {plant_name(plant)})")
 
 
 def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str = "known",
@@ -156,7 +160,6 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
         raise ValueError(f"unknown plant {plant!r}; choose one of {', '.join(PLANTS)}")
     settings = settings or ControllerSettings()
     result = run_trial(task, shape, spec, method, plant, sensor, settings, max_steps, progress, lanes, chunk)
-    plant_name = plant if isinstance(plant, str) else type(plant).__name__
     return make_episode(task, shape_name, shape, params, method, result,
-                        lanes if batched(plant, method, sensor) else 1, plant=plant_name,
+                        lanes if batched(plant, method, sensor) else 1, plant=plant_name(plant),
                         sensor=sensor, control_period=settings.mppi.control_period)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dexpush.checks import check_positive, checked_vector
+from dexpush.checks import check_nonnegative, check_positive, checked_vector
 from dexpush.interfaces import Frame, Plant, check_plant
 
 __all__ = ["Camera", "SensorSettings"]
@@ -44,10 +44,7 @@ class SensorSettings:
 
     def __post_init__(self) -> None:
         for name in ("pos_std_m", "heading_std_rad", "pusher_std_m", "latency_s", "drop_prob"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float | np.integer | np.floating) or not (
-                    np.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+            check_nonnegative(name, getattr(self, name))
         if self.rate_hz is not None:
             check_positive("rate_hz", self.rate_hz, "Hz, or None for one frame per control period")
         if not 0.0 <= self.drop_prob < 1.0:
