@@ -27,7 +27,7 @@ def test_run_writes_files_and_prints_json_last(tmp_path: Path, capsys) -> None:
                 "final_error_deg", "collisions", "contact_switches", "planning_ms_median"):
         assert key in summary
     assert summary["steps"] == 25 and summary["success"] is False and summary["task"] == "III"
-    for name in ("trajectory.png", "animation.gif", "summary.json", "trajectory.npz"):
+    for name in ("trajectory.png", Path(summary["files"]["animation"]).name, "summary.json", "trajectory.npz"):
         assert (out / name).stat().st_size > 0, name
     assert json.loads((out / "summary.json").read_text())["seed"] == 2
     assert not list(out.glob(".*")), "temporary files left behind"
@@ -55,7 +55,10 @@ def test_physics_plant_with_a_realistic_camera_end_to_end(tmp_path: Path) -> Non
 
 @pytest.mark.parametrize("args, message", [
     (["run", "--task", "IV"], "unknown task 'IV'"),
-    (["run", "--shape", "star"], "invalid choice: 'star'"),
+    (["run", "--shape", "star"], "shape must be one of rect, tee, ellipse or a .toml shape file"),
+    (["run", "--shape", "missing.toml"], "shape file 'missing.toml' does not exist"),
+    (["run", "--goal", "0.1,0.2"], "--goal: expected 3 comma-separated numbers"),
+    (["run", "--plant", "physics", "--mu", "0.4"], "true_params and mu set the model plant"),
     (["run", "--seed", "-3"], "seed must be >= 0"),
     (["run", "--max-steps", "0"], "must be a positive integer"),
     (["run", "--plant", "bullet"], "invalid choice: 'bullet'"),

@@ -11,15 +11,15 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "dexpush"
 
 #: lowest first; a module may import only from strictly lower layers (or its own sub-package)
 LAYERS = [
-    {"fastmath", "se2", "checks", "files", "compile_cache"},
+    {"fastmath", "se2", "checks", "files", "compile_cache", "polygons"},
     {"geometry", "interfaces"},
     {"model"},
-    {"cost", "mppi", "ukf", "tasks"},
+    {"cost", "mppi", "ukf", "tasks", "fitting"},
     {"estimator", "dataset", "viz"},
-    {"controller", "plants", "sensing", "gcs"},
+    {"controller", "plants", "sensing", "gcs", "logs"},
     {"simulate"},
     {"registry"},
-    {"records"},
+    {"records", "config"},
     {"runner"},
     {"tables"},
     {"benchmark"},

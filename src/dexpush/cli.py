@@ -5,6 +5,7 @@
     dexpush bench [--tasks I,II --shapes rect --trials 5 --out DIR]   the Sec. IV-B table
     dexpush bench --tasks I --shapes tee --params unknown --methods mppi --seeds 7   re-run one trial
     dexpush validate-mit DATA_DIR [--out DIR]  C-GVMM against recorded MIT pushes
+    dexpush fit LOG --shape FILE.toml        fit λ (and μ_c) to your own recorded pushes
 
 Every command writes its files under ``--out`` and prints a one-line JSON summary last.
 """
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import time
@@ -27,28 +29,31 @@ from dexpush.tasks import MAX_STEPS
 __all__ = ["main"]
 
 
-def _episode_files(episode, shape, out: Path, animation: bool) -> dict[str, str]:
+def _episode_files(episode, shape, out: Path, animation: bool, control_period: float = 0.04,
+                   truth: object | None = None) -> dict[str, str]:
     import matplotlib.pyplot as plt
     import numpy as np
 
     from dexpush.files import atomic_path, write_json_atomic
-    from dexpush.model import LAMBDA_TRUE
     from dexpush.viz import animate_episode, plot_episode, plot_params
 
     rec = episode.record
-    title = (f"Task {rec.task} · {rec.shape} · {rec.params} params · {rec.method} · seed {rec.seed}: "
-             f"{'success' if rec.success else 'failure'} in {rec.steps} steps")
+    task = "custom goal" if rec.task == "custom" else f"Task {rec.task}"
+    title = (f"{task} · {rec.shape} · {rec.method} ({rec.params} λ) · {rec.plant} plant · camera: {rec.sensor} · "
+             f"seed {rec.seed}\n{'success' if rec.success else 'failure'} in {rec.steps} steps ({rec.time_s:g} s)")
     files = {"trajectory": str(out / "trajectory.png"), "summary": str(out / "summary.json")}
     fig = plot_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles, title=title,
                        path=files["trajectory"])
     plt.close(fig)
     if rec.method == "mppi-ukf":
         files["params"] = str(out / "params.png")
-        plt.close(plot_params(episode.params, LAMBDA_TRUE, files["params"], title=title))
+        plt.close(plot_params(episode.params, truth, files["params"], dt=control_period, title=title))
     if animation:
-        files["animation"] = str(out / "animation.gif")
-        animate_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles,
-                        files["animation"], title=title)
+        duration = len(episode.states) * control_period
+        speedup = max(1, math.ceil(duration / 30.0))      # long episodes play faster (the caption says so)
+        files["animation"] = animate_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles,
+                                             out / "animation.mp4", control_period=control_period,
+                                             speedup=speedup, title=title)
     files["trajectory_data"] = str(out / "trajectory.npz")
     with atomic_path(files["trajectory_data"]) as tmp, open(tmp, "wb") as fh:
         np.savez_compressed(fh, states=episode.states, modes=episode.modes, commands=episode.commands,
@@ -58,19 +63,76 @@ def _episode_files(episode, shape, out: Path, animation: bool) -> dict[str, str]
     return files
 
 
+def _floats(count: int, what: str):
+    """An argparse type: ``count`` comma-separated numbers (the last may end in ``deg``)."""
+    def parse(text: str) -> tuple[float, ...]:
+        parts = [t.strip() for t in text.split(",")]
+        try:
+            if len(parts) != count:
+                raise ValueError
+            vals = [float(t[:-3]) if t.endswith("deg") else float(t) for t in parts]
+            if parts[-1].endswith("deg"):
+                vals[-1] = math.radians(vals[-1])
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what}: expected {count} comma-separated numbers, got {text!r}") \
+                from None
+        if not all(math.isfinite(v) for v in vals):
+            raise argparse.ArgumentTypeError(f"{what}: numbers must be finite, got {text!r}")
+        return tuple(vals)
+    return parse
+
+
+#: ``dexpush run`` flags that override the config's [run] table (None: not given)
+_RUN_KEYS = ("task", "shape", "goal", "params", "lambda_pred", "method", "seed", "plant", "true_params", "mu",
+             "max_steps")
+
+
+def _run_config(args: argparse.Namespace):
+    """The effective :class:`dexpush.config.RunConfig`: defaults, then ``--config``, then the flags."""
+    from dexpush.config import default_config, load_config
+
+    over: dict = {"run": {k: getattr(args, k) for k in _RUN_KEYS if getattr(args, k, None) is not None}}
+    if getattr(args, "obstacle", None) is not None:
+        over["run"]["obstacles"] = [list(o) for o in args.obstacle]
+    if args.samples is not None:
+        over["controller"] = {"mppi": {"num_samples": args.samples}}
+    sensor = _sensor_flags(args)
+    if sensor is not None:
+        over["sensor"] = {f: getattr(sensor, f) for f in ("pos_std_m", "heading_std_rad", "pusher_std_m", "rate_hz",
+                                                          "latency_s", "drop_prob", "seed")}
+    for k in ("goal", "lambda_pred", "true_params"):
+        if k in over["run"]:
+            over["run"][k] = list(over["run"][k])
+    return load_config(args.config, over) if getattr(args, "config", None) else default_config(over)
+
+
 def _cmd_run(args: argparse.Namespace) -> dict:
-    from dexpush.controller import ControllerSettings
-    from dexpush.mppi import MPPISettings
-    from dexpush.registry import make_shape
+    from dataclasses import replace
+
+    from dexpush.config import build_plant, build_task, lambda_pred, load_shape, to_toml
+    from dexpush.model import LAMBDA_TRUE
     from dexpush.runner import run_episode
 
-    shape = make_shape(args.shape)
-    settings = ControllerSettings(mppi=MPPISettings(num_samples=args.samples))
-    episode = run_episode(args.task, shape, params=args.params, method=args.method, seed=args.seed,
-                          max_steps=args.max_steps, settings=settings, progress=not args.quiet, lanes=args.lanes,
-                          plant=args.plant, sensor=_sensor(args))
+    config = _run_config(args)
+    if getattr(args, "print_config", False):
+        sys.stdout.write(to_toml(config))
+        return {}
+    run = config.run
+    shape = load_shape(run.shape)
+    if shape.origin != (0.0, 0.0) and not args.quiet:
+        print(f"dexpush: {shape.name}: reference point (the pose the goal refers to) at "
+              f"({shape.origin[0]:.4f}, {shape.origin[1]:.4f}) m in the shape file's frame", file=sys.stderr)
+    task = build_task(run)
+    sensor = config.sensor if config.sensor != type(config.sensor)() else None
+    params = run.params if run.lambda_pred is None else lambda_pred(run)
+    settings = replace(config.controller)
+    episode = run_episode(task, shape, params=params, method=run.method, seed=run.seed,
+                          max_steps=run.max_steps, settings=settings, progress=not args.quiet, lanes=args.lanes,
+                          plant=build_plant(config, shape), sensor=sensor)
     out = Path(args.out)
-    files = _episode_files(episode, shape, out, animation=not args.no_animation)
+    files = _episode_files(episode, shape, out, animation=not args.no_animation,
+                           control_period=settings.mppi.control_period,
+                           truth=(run.true_params or LAMBDA_TRUE) if run.plant == "model" else None)
     summary = episode.summary()
     summary["files"] = files
     return summary
@@ -104,6 +166,50 @@ def _cmd_validate(args: argparse.Namespace) -> dict:
     return summary
 
 
+def _cmd_fit(args: argparse.Namespace) -> dict:
+    import matplotlib.pyplot as plt
+
+    from dexpush.config import load_shape
+    from dexpush.dataset import OBJECTS
+    from dexpush.files import write_json_atomic
+    from dexpush.fitting import fit_pushes
+    from dexpush.logs import read_log
+    from dexpush.viz import plot_fit
+
+    pushes = read_log(args.log)
+    if args.shape is not None:
+        shape = load_shape(args.shape)
+    else:
+        kinds = {p.shape for p in pushes}
+        if len(kinds) != 1 or next(iter(kinds)) not in OBJECTS:
+            raise ValueError("--shape is needed: the object's footprint (rect, tee, ellipse or a shape file), "
+                             "with the logged pose being its reference point")
+        shape = OBJECTS[next(iter(kinds))]()
+    result = fit_pushes(pushes, shape, mu=args.mu, fit_mu=args.fit_mu)
+    summary = {"log": str(args.log), "shape": shape.name, **result.summary()}
+    out = Path(args.out)
+    files = {"fit": str(out / "fit.json"), "figure": str(out / "fit.png")}
+    plt.close(plot_fit(shape, [p.states for p in pushes], result.replays, summary, files["figure"]))
+    lam = summary["lambda"]
+    summary["use"] = (f"dexpush run --lambda-pred {lam[0]:g},{lam[1]:g},{lam[2]:g}"
+                      + (f" (and [controller] mu = {summary['mu_c']:g} in a --config file)" if args.fit_mu else ""))
+    write_json_atomic(files["fit"], summary)
+    if not args.quiet:
+        std = [v if v is not None else float("inf") for v in summary["lambda_std"]]
+        mu = f"μ_c = {args.mu:g} (given)"
+        if args.fit_mu:
+            mu = (f"μ_c = {summary['mu_c']:.3f} ± {summary['mu_c_std']:.3f}" if summary["mu_c_std"] is not None
+                  else f"μ_c = {summary['mu_c']:.3f}, not identifiable: no sample slides along the contour")
+        print(f"{summary['pushes']} pushes, {summary['samples']} samples at 25 Hz\n"
+              f"β    = {lam[0]:8.2f} ± {std[0]:.2f} 1/m\nx_bf = {lam[1] * 1e3:8.2f} ± {std[1] * 1e3:.2f} mm\n"
+              f"y_bf = {lam[2] * 1e3:8.2f} ± {std[2] * 1e3:.2f} mm\n{mu}\n"
+              f"one-step error {summary['one_step_error_mm']:.2f} mm / {summary['one_step_error_deg']:.2f}°, "
+              f"whole push {summary['whole_push_error_mm']:.1f} mm / {summary['whole_push_error_deg']:.1f}°\n"
+              f"use it: {summary['use']}", file=sys.stderr)
+    summary["files"] = files
+    return summary
+
+
 def _seed_list(text: str) -> list[int]:
     """``0-29`` or ``3,7,11`` (or a mix) → sorted seeds."""
     seeds: set[int] = set()
@@ -119,15 +225,22 @@ def _seed_list(text: str) -> list[int]:
     return sorted(seeds)
 
 
-def _sensor(args: argparse.Namespace):
+def _sensor_flags(args: argparse.Namespace):
+    """The camera the flags ask for, or None when no camera flag was given."""
     from dexpush.sensing import SensorSettings
 
     if args.camera == "realistic":
         return SensorSettings.realistic()
-    import math
-
+    if args.camera is None and not any((args.noise_mm, args.noise_deg, args.camera_hz, args.latency_ms, args.drop)):
+        return None
     return SensorSettings(pos_std_m=args.noise_mm / 1e3, heading_std_rad=math.radians(args.noise_deg),
                           rate_hz=args.camera_hz, latency_s=args.latency_ms / 1e3, drop_prob=args.drop)
+
+
+def _sensor(args: argparse.Namespace):
+    from dexpush.sensing import SensorSettings
+
+    return _sensor_flags(args) or SensorSettings()
 
 
 def _sensor_text(args: argparse.Namespace) -> str:
@@ -210,8 +323,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     def sensor_args(sp: argparse.ArgumentParser) -> None:
         g = sp.add_argument_group("sensing (what the controller sees; default: exact state every step)")
-        g.add_argument("--camera", choices=["exact", "realistic"], default="exact",
-                       help="realistic: 15 Hz, 1 mm / 0.5° noise, 60 ms latency, 5%% dropped frames")
+        g.add_argument("--camera", choices=["exact", "realistic"], default=None,
+                       help="exact (default): the true state every step; realistic: 15 Hz, 1 mm / 0.5° noise, "
+                            "60 ms latency, 5%% dropped frames")
         g.add_argument("--noise-mm", type=float, default=0.0, help="object position noise σ (mm)")
         g.add_argument("--noise-deg", type=float, default=0.0, help="object heading noise σ (deg)")
         g.add_argument("--camera-hz", type=float, default=None, help="camera rate (default: every control step)")
@@ -220,10 +334,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     def episode_args(sp: argparse.ArgumentParser, out: str) -> None:
         sp.add_argument("--out", default=out, help=f"output folder (default {out})")
-        sp.add_argument("--max-steps", type=_positive_int, default=MAX_STEPS,
+        sp.add_argument("--max-steps", type=_positive_int, default=None,
                         help=f"control steps before giving up (default {MAX_STEPS})")
-        sp.add_argument("--samples", type=_positive_int, default=1024, help="MPPI samples K (default 1024)")
-        sp.add_argument("--no-animation", action="store_true", help="skip the GIF")
+        sp.add_argument("--samples", type=_positive_int, default=None, help="MPPI samples K (default 1024)")
+        sp.add_argument("--no-animation", action="store_true", help="skip the animation")
         sp.add_argument("--quiet", action="store_true", help="no progress bar")
 
     demo = sub.add_parser("demo", help="closed-loop demo: Task I, rect, known parameters, MPPI")
@@ -232,18 +346,42 @@ def build_parser() -> argparse.ArgumentParser:
                       camera="exact", noise_mm=0.0, noise_deg=0.0, camera_hz=None, latency_ms=0.0, drop=0.0,
                       func=_cmd_run)
 
-    run = sub.add_parser("run", help="one episode of a benchmark task")
-    run.add_argument("--task", default="I", help="I, II or III (default I)")
-    run.add_argument("--shape", default="rect", choices=SHAPES)
-    run.add_argument("--params", default="known", choices=tuple(PARAMS),
-                     help="λ_pred = λ_true (known) or [15, 0, 0] (unknown)")
-    run.add_argument("--method", default="mppi", choices=ALL_METHODS,
+    run = sub.add_parser("run", help="one closed-loop episode: a benchmark task, or your own object, goal and "
+                                     "obstacles", formatter_class=argparse.RawDescriptionHelpFormatter,
+                         epilog="examples:\n"
+                                "  dexpush run --task III --shape tee --method mppi-ukf --params unknown --seed 3\n"
+                                "  dexpush run --shape examples/shapes/l_block.toml --goal 0.4,0.2,30deg "
+                                "--obstacle 0.2,0.1,0.03\n"
+                                "  dexpush run --print-config > run.toml   # edit, then: dexpush run --config run.toml")
+    what = run.add_argument_group("what to push where (flags override --config)")
+    what.add_argument("--config", metavar="FILE.toml", default=None,
+                      help="a run configuration (see --print-config for every key and its default)")
+    what.add_argument("--print-config", action="store_true",
+                      help="print the effective configuration as TOML and exit")
+    what.add_argument("--task", default=None, help="I, II or III: start distribution, goal, obstacles (default I)")
+    what.add_argument("--shape", default=None, metavar="NAME|FILE.toml",
+                      help=f"{', '.join(SHAPES)}, or a shape file (docs/conventions.md#shapes) (default rect)")
+    what.add_argument("--goal", type=_floats(3, "--goal"), default=None, metavar="X,Y,THETA",
+                      help="goal pose of the shape's reference point: x, y in m, θ in rad (or e.g. 30deg) "
+                           "(default: the task's)")
+    what.add_argument("--obstacle", type=_floats(3, "--obstacle"), action="append", default=None,
+                      metavar="CX,CY,R", help="a disc obstacle in m; repeat for more (default: the task's)")
+    what.add_argument("--seed", type=_seed, default=None, help="start perturbation and MPPI sampling (default 0)")
+    how = run.add_argument_group("controller and world")
+    how.add_argument("--method", default=None, choices=ALL_METHODS,
                      help="MPPI with fixed λ_pred, MPPI with the UKF estimating λ online, or the GCS "
-                          "plan-and-track baseline (tasks I and II; needs the `drake` package)")
-    run.add_argument("--seed", type=_seed, default=0)
-    run.add_argument("--plant", default="model", choices=PLANTS,
-                     help="the world: model (C-GVMM, λ_true) or physics (MuJoCo) (default model)")
-    run.add_argument("--lanes", type=_positive_int, default=1,
+                          "plan-and-track baseline (no obstacles; needs the `drake` package) (default mppi)")
+    how.add_argument("--params", default=None, choices=tuple(PARAMS),
+                     help="the controller's first λ_pred: λ_true (known) or [15, 0, 0] (unknown) (default known)")
+    how.add_argument("--lambda-pred", type=_floats(3, "--lambda-pred"), default=None, metavar="BETA,XBF,YBF",
+                     help="the controller's first λ_pred = [β (1/m), x_bf (m), y_bf (m)], e.g. from `dexpush fit`; "
+                          "overrides --params")
+    how.add_argument("--plant", default=None, choices=PLANTS,
+                     help="the world: model (C-GVMM) or physics (MuJoCo) (default model)")
+    how.add_argument("--true-params", type=_floats(3, "--true-params"), default=None, metavar="BETA,XBF,YBF",
+                     help="the model plant's true λ (default 25,-0.01,0.02)")
+    how.add_argument("--mu", type=float, default=None, help="the model plant's true μ_c (default 0.3)")
+    how.add_argument("--lanes", type=_positive_int, default=1,
                      help="batch lanes of the simulation (default 1); 32 reproduces a `dexpush bench` record exactly")
     sensor_args(run)
     episode_args(run, "out/run")
@@ -268,7 +406,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--plant", default="model", choices=PLANTS,
                        help="model: batched C-GVMM world; physics: MuJoCo, trials one by one (default model)")
     sensor_args(bench)
-    bench.add_argument("--max-steps", type=_positive_int, default=MAX_STEPS)
+    bench.add_argument("--max-steps", type=_positive_int, default=MAX_STEPS,
+                       help=f"control steps before a trial fails (default {MAX_STEPS})")
     bench.add_argument("--out", default="out/bench", help="output folder; re-running resumes (default out/bench)")
     bench.add_argument("--quiet", action="store_true", help="no progress output")
     bench.set_defaults(func=_cmd_bench)
@@ -279,6 +418,20 @@ def build_parser() -> argparse.ArgumentParser:
     val.add_argument("--mu", type=float, default=0.25, help="pusher–object friction μ_c (default 0.25, as the paper)")
     val.add_argument("--quiet", action="store_true", help="no per-object lines on stderr")
     val.set_defaults(func=_cmd_validate)
+
+    fit = sub.add_parser("fit", help="fit λ = [β, x_bf, y_bf] (and μ_c) to your recorded pushes",
+                         description="Fit the C-GVMM's λ to recorded pushes: a CSV or NPZ log (columns t, x, y, "
+                                     "theta, px, py: object pose and pusher centre in m, rad, s), MIT push files, "
+                                     "or a folder of these. See docs/robot.md.")
+    fit.add_argument("log", help="a .csv or .npz log, an MIT motion_*.h5/.json file, or a folder of them")
+    fit.add_argument("--shape", default=None, metavar="NAME|FILE.toml",
+                     help=f"the object: {', '.join(SHAPES)} or a shape file (MIT files: known from their names)")
+    fit.add_argument("--mu", type=float, default=0.25, help="pusher–object friction μ_c (the start value with "
+                                                           "--fit-mu) (default 0.25)")
+    fit.add_argument("--fit-mu", action="store_true", help="fit μ_c as well")
+    fit.add_argument("--out", default="out/fit", help="output folder for fit.json and fit.png (default out/fit)")
+    fit.add_argument("--quiet", action="store_true", help="no report on stderr")
+    fit.set_defaults(func=_cmd_fit)
     return p
 
 
@@ -298,7 +451,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, OSError) as exc:  # bad input, or a path that cannot be used: one clear line, no traceback
         print(f"dexpush: error: {exc}", file=sys.stderr)
         return 2
-    print(json.dumps(summary))
+    if summary:                         # --print-config printed the config instead
+        print(json.dumps(summary))
     return 1 if summary.get("success") is False else 0
 
 

@@ -39,19 +39,15 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
+from dexpush.fitting import RATE_HZ, Push, fit_beta, fit_lambda, resample, residuals, samples, whole_push_errors
 from dexpush.geometry import Shape
-from dexpush.model import FREE, MODE_NAMES, SLIDE_CCW, SLIDE_CW, STICK, Contour, contact_solution, integrate, replay
-from dexpush.se2 import pose_error, wrap_angle
+from dexpush.model import MODE_NAMES, Contour, contact_solution
 
 __all__ = ["OBJECTS", "PUSHER_RADIUS", "Push", "ValidationResult", "load_folder", "load_push", "validate"]
 
 PUSHER_RADIUS = 0.00475
-RATE_HZ = 25.0
-_RAW_HZ = 250.0
 _NUM = r"-?[0-9]+(?:\.[0-9]+)?"
 _NAME = re.compile(rf"shape=(?P<shape>[a-z0-9]+)_a=(?P<a>{_NUM})_v=(?P<v>{_NUM})_i=(?P<i>{_NUM})"
                    rf"_s=(?P<s>{_NUM})_t=(?P<t>{_NUM})")
@@ -67,22 +63,6 @@ def _ellip1() -> Shape:
 
 #: the dataset objects this module knows (IROS 2016, Table III), by their file-name key
 OBJECTS = {"rect1": _rect1, "ellip1": _ellip1}
-
-
-@dataclass
-class Push:
-    """One push resampled to 25 Hz: time (T,), object pose (T, 3), pusher centre (T, 2)."""
-
-    name: str
-    shape: str
-    time: np.ndarray
-    object_pose: np.ndarray
-    pusher_xy: np.ndarray
-    meta: dict = field(default_factory=dict)
-
-    @property
-    def states(self) -> np.ndarray:
-        return np.concatenate([self.object_pose, self.pusher_xy], -1)
 
 
 def _read_streams(path: Path) -> dict[str, np.ndarray]:
@@ -125,25 +105,6 @@ def _clean(a: np.ndarray, name: str, key: str) -> np.ndarray:
     return a
 
 
-def _smooth_resample(t_raw: np.ndarray, y: np.ndarray, t0: float, t1: float) -> tuple[np.ndarray, np.ndarray]:
-    """Uniform 250 Hz, zero-phase Gaussian low-pass (σ = 20 ms), every 10th sample (25 Hz).
-
-    Times are taken relative to t0 first: Unix timestamps (~1.5e9 s) lose the sub-µs
-    resolution a uniform grid needs.
-    """
-    grid = np.arange(int(np.floor((t1 - t0) * _RAW_HZ)) + 1) / _RAW_HZ
-    yi = np.stack([np.interp(grid, t_raw - t0, y[:, j]) for j in range(y.shape[1])], -1)
-    sigma = 0.020 * _RAW_HZ
-    k = np.arange(-int(4 * sigma), int(4 * sigma) + 1)
-    w = np.exp(-0.5 * (k / sigma) ** 2)
-    w /= w.sum()
-    pad = len(k) // 2
-    padded = np.concatenate([np.repeat(yi[:1], pad, 0), yi, np.repeat(yi[-1:], pad, 0)])
-    ys = np.stack([np.convolve(padded[:, j], w, mode="valid") for j in range(y.shape[1])], -1)
-    step = round(_RAW_HZ / RATE_HZ)
-    return grid[::step], ys[::step]
-
-
 def load_push(path: str | Path) -> Push:
     """Read, clean, synchronise and resample one push file (.h5 or .json) to 25 Hz."""
     path = Path(path)
@@ -163,8 +124,8 @@ def load_push(path: str | Path) -> Push:
     t0, t1 = max(obj[0, 0], tip[0, 0]), min(obj[-1, 0], tip[-1, 0])
     if t1 - t0 < 4.0 / RATE_HZ:
         raise ValueError(f"{path.name}: object and pusher streams overlap for only {t1 - t0:.3f} s")
-    t, q = _smooth_resample(obj[:, 0], obj[:, 1:4], t0, t1)
-    _, p = _smooth_resample(tip[:, 0], tip[:, 1:3], t0, t1)
+    t, q = resample(obj[:, 0], obj[:, 1:4], t0, t1)
+    _, p = resample(tip[:, 0], tip[:, 1:3], t0, t1)
     meta = {k: float(m[k]) for k in ("a", "v", "i", "s", "t")}
     return Push(path.name, shape, t, q, p, meta)
 
@@ -188,133 +149,6 @@ def load_folder(folder: str | Path, objects: tuple[str, ...] = tuple(OBJECTS)) -
 
 # ---------------------------------------------------------------------------- validation
 @dataclass
-class Samples:
-    """Per-sample arrays of one object's pushes, concatenated (numpy)."""
-
-    states: np.ndarray        #: (S, 5) x_k
-    inputs: np.ndarray        #: (S, 2) u_k
-    next_pose: np.ndarray     #: (S, 3) q_{k+1}
-    observed: np.ndarray      #: (S,) observed mode
-    push_index: np.ndarray    #: (S,) which push
-
-
-def _contact_geometry(contour: Contour, X: np.ndarray) -> tuple[np.ndarray, ...]:
-    """For observed states X (T, 5): unwrapped φ_c, R(φ_c), R'(φ_c), the gap |p| − R, and
-    the pusher centres moved radially onto the contour (the tip/Vicon offset removed)."""
-    rel = X[:, 3:] - X[:, :2]
-    c, s = np.cos(X[:, 2]), np.sin(X[:, 2])
-    body = np.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
-    phi = np.unwrap(np.arctan2(body[:, 1], body[:, 0]))
-    R, dR = (np.asarray(a, np.float64) for a in contour.lookup(jnp.asarray(wrap_angle(phi))))
-    dist = np.linalg.norm(body, axis=-1)
-    on_contour = X[:, :2] + (R / dist)[:, None] * rel
-    return phi, R, dR, dist - R, on_contour
-
-
-def _samples(pushes: list[Push], shape: Shape, separation_mm: float, stick_ratio: float,
-             min_speed_mm_s: float) -> Samples:
-    contour = Contour.of(shape)
-    dt = 1.0 / RATE_HZ
-    parts = []
-    for i, p in enumerate(pushes):
-        X = p.states.copy()
-        U = np.diff(p.pusher_xy, axis=0) / dt
-        phi, R, dR, gap, on_contour = _contact_geometry(contour, X)
-        contact = gap <= separation_mm / 1000
-        X[contact, 3:] = on_contour[contact]   # observed contact: pusher on the contour
-        slide = np.hypot(R, dR)[:-1] * np.diff(phi) / dt        # contact-point speed along the contour
-        speed = np.linalg.norm(U, axis=-1)
-        obs = np.where(~(contact[:-1] & contact[1:]), FREE,
-                       np.where(np.abs(slide) < stick_ratio * speed, STICK,
-                                np.where(slide > 0, SLIDE_CCW, SLIDE_CW)))
-        moving = speed * 1000 >= min_speed_mm_s
-        parts.append((X[:-1][moving], U[moving], p.object_pose[1:][moving], obs[moving],
-                      np.full(int(moving.sum()), i)))
-    return Samples(*(np.concatenate([pp[j] for pp in parts]) for j in range(5)))
-
-
-@jax.jit
-def _one_step(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, lam: jnp.ndarray, mu: jnp.ndarray) -> jnp.ndarray:
-    return integrate(contour, x, u, 1.0 / RATE_HZ, lam, mu, 10)
-
-
-@jax.jit
-def _replay_final(contour: Contour, x0: jnp.ndarray, U: jnp.ndarray, lam: jnp.ndarray, mu: jnp.ndarray) -> jnp.ndarray:
-    return replay(contour, x0, U, 1.0 / RATE_HZ, lam, mu, 10)[-1]
-
-
-def _residuals(contour: Contour, smp: Samples, lam: np.ndarray, mu: float) -> np.ndarray:
-    """One-step residuals [Δx, Δy, c·Δθ] (m), c = 0.05 m/rad (a 5-cm lever arm)."""
-    pred = np.asarray(_one_step(contour, jnp.asarray(smp.states, jnp.float32), jnp.asarray(smp.inputs, jnp.float32),
-                                jnp.asarray(lam, jnp.float32), jnp.float32(mu)), np.float64)[:, :3]
-    d = pred - smp.next_pose
-    d[:, 2] = 0.05 * wrap_angle(d[:, 2])
-    return d.reshape(-1)
-
-
-def fit_beta(contour: Contour, smp: Samples, mu: float, lo: float = 2.0, hi: float = 400.0) -> float:
-    """β minimising the one-step residuals with p_bf = 0 (golden-section search on log β)."""
-    def f(logb: float) -> float:
-        return float(np.sum(_residuals(contour, smp, np.array([np.exp(logb), 0.0, 0.0]), mu) ** 2))
-
-    a, b = np.log(lo), np.log(hi)
-    grid = np.linspace(a, b, 17)  # coarse bracket first: the objective need not be unimodal
-    vals = [f(g) for g in grid]
-    j = int(np.argmin(vals))
-    a, b = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
-    g = (np.sqrt(5) - 1) / 2
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = f(c), f(d)
-    for _ in range(30):
-        if fc < fd:
-            b, d, fd = d, c, fc
-            c = b - g * (b - a)
-            fc = f(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + g * (b - a)
-            fd = f(d)
-    return float(np.exp(0.5 * (a + b)))
-
-
-def fit_lambda(contour: Contour, smp: Samples, mu: float, beta0: float, iters: int = 15) -> np.ndarray:
-    """λ = [β, x_bf, y_bf] by Levenberg–Marquardt on the one-step residuals (finite-difference J)."""
-    lam = np.array([beta0, 0.0, 0.0])
-    scale = np.array([beta0 * 0.02, 1e-3, 1e-3])
-    r = _residuals(contour, smp, lam, mu)
-    damping = 1e-2
-    for _ in range(iters):
-        J = np.stack([(_residuals(contour, smp, lam + scale * e, mu) - r) / scale[i]
-                      for i, e in enumerate(np.eye(3))], -1)
-        A, g = J.T @ J, J.T @ r
-        step = -np.linalg.solve(A + damping * np.diag(np.diag(A) + 1e-12), g)
-        cand = lam + step
-        cand[0] = max(cand[0], 1.0)
-        cand[1:] = np.clip(cand[1:], -0.05, 0.05)
-        rc = _residuals(contour, smp, cand, mu)
-        if rc @ rc < r @ r:
-            lam, r, damping = cand, rc, damping * 0.3
-        else:
-            damping *= 10
-    return lam
-
-
-def whole_push_errors(contour: Contour, pushes: list[Push], lam: np.ndarray, mu: float) -> tuple[float, float]:
-    """Mean final-pose error (mm, deg) of open-loop replays from each push's first sample."""
-    pos, head = [], []
-    for p in pushes:
-        x0 = p.states[0].copy()
-        x0[3:] = _contact_geometry(contour, x0[None])[4][0]   # pushes start in contact (dataset README)
-        U = np.diff(p.pusher_xy, axis=0) * RATE_HZ
-        x = _replay_final(contour, jnp.asarray(x0, jnp.float32), jnp.asarray(U, jnp.float32),
-                          jnp.asarray(lam, jnp.float32), jnp.float32(mu))
-        e_pos, e_head = pose_error(np.asarray(x[:3], np.float64), p.object_pose[-1])
-        pos.append(e_pos * 1000)
-        head.append(e_head)
-    return float(np.mean(pos)), float(np.mean(head))
-
-
-@dataclass
 class ValidationResult:
     """Per-object numbers and the per-sample arrays behind the figures."""
 
@@ -334,7 +168,7 @@ def validate(pushes: list[Push], mu: float = 0.25, separation_mm: float = 3.0, s
         ps = [p for p in pushes if p.shape == obj]
         shape = OBJECTS[obj]()
         contour = Contour.of(shape)
-        smp = _samples(ps, shape, separation_mm, stick_ratio, min_speed_mm_s)
+        smp = samples(ps, shape, separation_mm, stick_ratio, min_speed_mm_s)
         if len(smp.observed) == 0:
             raise ValueError(f"{obj}: none of its {len(ps)} push(es) has a sample with the pusher moving at least "
                              f"{min_speed_mm_s:g} mm/s; nothing to validate (is the pusher stream stationary?)")
@@ -346,7 +180,7 @@ def validate(pushes: list[Push], mu: float = 0.25, separation_mm: float = 3.0, s
         np.add.at(confusion, (smp.observed, predicted), 1)
         agree = int(np.trace(confusion))
         agree_total += agree
-        r = _residuals(contour, smp, lam_beta, mu).reshape(-1, 3)
+        r = residuals(contour, smp, lam_beta, mu).reshape(-1, 3)
         entry = {
             "pushes": len(ps), "samples": len(smp.observed), "beta_fit": round(beta, 3),
             "mode_agreement": round(agree / len(smp.observed), 4),
@@ -361,8 +195,8 @@ def validate(pushes: list[Push], mu: float = 0.25, separation_mm: float = 3.0, s
         wz = whole_push_errors(contour, ps, zero, mu)
         entry["whole_push_error_mm_beta25"], entry["whole_push_error_deg_beta25"] = round(wz[0], 2), round(wz[1], 2)
         if fit_full:
-            lam = fit_lambda(contour, smp, mu, beta)
-            rf = _residuals(contour, smp, lam, mu).reshape(-1, 3)
+            lam = fit_lambda(contour, smp, mu, beta).lam
+            rf = residuals(contour, smp, lam, mu).reshape(-1, 3)
             wf = whole_push_errors(contour, ps, lam, mu)
             entry["lambda_fit"] = [round(float(v), 5) for v in lam]
             entry["one_step_error_mm_full_fit"] = round(float(np.mean(np.hypot(rf[:, 0], rf[:, 1]))) * 1000, 3)

@@ -27,6 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 from tqdm import tqdm
 
+from dexpush.checks import check_params, checked_vector
 from dexpush.controller import ControllerSettings
 from dexpush.cost import Scene, collides
 from dexpush.geometry import Shape
@@ -102,10 +103,18 @@ def plant_name(plant: str | Plant) -> str:
     return plant if isinstance(plant, str) else type(plant).__name__
 
 
-def trial_spec(params: str, method: str, seed: int) -> TrialSpec:
-    """The :class:`TrialSpec` of one benchmark trial."""
-    check_condition(params, method)
-    return TrialSpec(int(seed), PARAMS[params], method == "mppi-ukf")
+def trial_spec(params: str | object, method: str, seed: int) -> TrialSpec:
+    """The :class:`TrialSpec` of one trial; ``params`` is a scenario name (``known``,
+    ``unknown``) or the λ_pred = [β, x_bf, y_bf] the controller starts from."""
+    if isinstance(params, str):
+        check_condition(params, method)
+        lam = PARAMS[params]
+    else:
+        check_condition("known", method)
+        vec = checked_vector("params", params, 3)
+        check_params(vec)
+        lam = tuple(float(v) for v in vec)
+    return TrialSpec(int(seed), lam, method == "mppi-ukf")
 
 
 def batched(plant: str | Plant, method: str, sensor: SensorSettings | None) -> bool:
@@ -138,11 +147,14 @@ def run_trial(task: Task, shape: Shape, spec: TrialSpec, method: str, plant: str
                     desc=f"task {task.key} {shape.name} ({method}, {plant_name(plant)})")
 
 
-def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str = "known",
+def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str | object = "known",
                 method: str = "mppi", seed: int = 0, max_steps: int = MAX_STEPS,
                 settings: ControllerSettings | None = None, progress: bool = False, lanes: int = 1,
                 chunk: int = 25, plant: str | Plant = "model", sensor: SensorSettings | None = None) -> Episode:
     """Run one closed-loop trial (SPEC §5) and record it.
+
+    ``params`` is ``"known"``, ``"unknown"`` or a λ_pred = [β, x_bf, y_bf] to start from
+    (recorded as ``custom``).
 
     ``plant`` is ``"model"``, ``"physics"`` or any :class:`dexpush.interfaces.Plant`
     object (your own simulator or robot). On the model plant with exact observations and
@@ -160,6 +172,6 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
         raise ValueError(f"unknown plant {plant!r}; choose one of {', '.join(PLANTS)}")
     settings = settings or ControllerSettings()
     result = run_trial(task, shape, spec, method, plant, sensor, settings, max_steps, progress, lanes, chunk)
-    return make_episode(task, shape_name, shape, params, method, result,
+    return make_episode(task, shape_name, shape, params if isinstance(params, str) else "custom", method, result,
                         lanes if batched(plant, method, sensor) else 1, plant=plant_name(plant),
                         sensor=sensor, control_period=settings.mppi.control_period)

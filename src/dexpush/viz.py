@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.animation import FuncAnimation, PillowWriter
 from matplotlib.collections import LineCollection
 from matplotlib.patches import Circle, Polygon
 
@@ -17,7 +17,7 @@ from dexpush.files import atomic_path
 from dexpush.geometry import Shape
 from dexpush.model import MODE_NAMES
 
-__all__ = ["animate_episode", "plot_condition", "plot_episode", "plot_shapes", "save_figure_atomic"]
+__all__ = ["animate_episode", "plot_condition", "plot_episode", "plot_fit", "plot_shapes", "save_figure_atomic"]
 
 MODE_COLORS = {"stick": "#e6a800", "slide_ccw": "#2ca02c", "slide_cw": "#1f77b4", "free": "#d62728"}
 
@@ -35,7 +35,7 @@ def _draw_pose(ax: plt.Axes, shape: Shape, pose: np.ndarray, **kw: object) -> No
 
 
 def _setup_axes(ax: plt.Axes, shape: Shape, states: np.ndarray, goal: np.ndarray,
-                obstacles: np.ndarray) -> None:
+                obstacles: np.ndarray, goal_label: str = "goal") -> None:
     pts = np.concatenate([states[:, :2], states[:, 3:], goal[None, :2]])
     pad = shape.bounding_radius + 0.03
     ax.set_xlim(pts[:, 0].min() - pad, pts[:, 0].max() + pad)
@@ -46,7 +46,7 @@ def _setup_axes(ax: plt.Axes, shape: Shape, states: np.ndarray, goal: np.ndarray
     ax.grid(alpha=0.3)
     for cx, cy, r in obstacles:
         ax.add_patch(Circle((cx, cy), r, color="#d62728", alpha=0.5, label="obstacle"))
-    _draw_pose(ax, shape, goal, fill=False, ec="#d62728", lw=1.5, ls="--", label="goal")
+    _draw_pose(ax, shape, goal, fill=False, ec="#d62728", lw=1.5, ls="--", label=goal_label)
 
 
 def _finish(fig: plt.Figure, ax: plt.Axes, title: str, path: str | os.PathLike | None, dpi: int) -> plt.Figure:
@@ -104,39 +104,114 @@ def plot_condition(shape: Shape, trajectories: list[np.ndarray], successes: list
 
 
 def animate_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.ndarray,
-                    obstacles: np.ndarray | None, path: str | os.PathLike, max_frames: int = 120,
-                    fps: int = 15, title: str = "") -> None:
-    """A GIF of the episode (subsampled to at most ``max_frames`` frames)."""
+                    obstacles: np.ndarray | None, path: str | os.PathLike, fps: float = 12.5,
+                    control_period: float = 0.04, speedup: float = 1.0, title: str = "") -> str:
+    """An animation of the episode playing at ``speedup`` × real time; returns the path written.
+
+    One frame every k = round(speedup / (fps·T)) control steps (T = ``control_period``),
+    shown for k·T/speedup seconds, so the clock in the video runs at ``speedup`` × real time
+    (at 25 Hz and the defaults: every 2nd step, 12.5 frames per second). The file is an MP4
+    when ``path`` ends in ``.mp4`` and ffmpeg is installed, else a GIF (``path`` with the
+    suffix ``.gif``); the caption states the speed-up.
+    """
     states = np.asarray(states)
     obstacles = np.zeros((0, 3)) if obstacles is None else np.asarray(obstacles).reshape(-1, 3)
-    frames = np.unique(np.linspace(0, len(states) - 1, min(max_frames, len(states))).astype(int))
-    fig, ax = plt.subplots(figsize=(5, 4))
+    stride = max(1, round(speedup / (fps * control_period)))
+    fps = speedup / (stride * control_period)          # the rate that keeps the clock exact
+    frames = np.arange(0, len(states), stride)
+    if frames[-1] != len(states) - 1:
+        frames = np.append(frames, len(states) - 1)
+    fig, ax = plt.subplots(figsize=(5, 4), dpi=80)
     _setup_axes(ax, shape, states, np.asarray(goal), obstacles)
     ax.set_title(title, fontsize=8)
-    patches = [Polygon(np.zeros((3, 2)), closed=True, fc="0.6", ec="k") for _ in shape.polygons]
+    patches = [Polygon(np.zeros((3, 2)), closed=True, fc="0.6", ec="k", animated=True) for _ in shape.polygons]
     for p in patches:
         ax.add_patch(p)
-    trail, = ax.plot([], [], "k-", lw=1)
-    pusher = Circle((0, 0), shape.pusher_radius, color="c", ec="k", zorder=5)
+    trail, = ax.plot([], [], "k-", lw=1, animated=True)
+    pusher = Circle((0, 0), shape.pusher_radius, color="c", ec="k", zorder=5, animated=True)
     ax.add_patch(pusher)
-    text = ax.text(0.02, 0.96, "", transform=ax.transAxes, fontsize=8, va="top")
-
-    def draw(i: int) -> list:
+    text = ax.text(0.02, 0.96, "", transform=ax.transAxes, fontsize=8, va="top", animated=True)
+    speed = "real time" if speedup == 1 else f"{speedup:g}× real time"
+    # the axes, goal and obstacles are drawn once; each frame redraws only the moving artists on a copy
+    fig.canvas.draw()
+    background = fig.canvas.copy_from_bbox(fig.bbox)
+    images = []
+    for i in frames:
         for p, poly in zip(patches, shape.footprint_world(states[i])):
             p.set_xy(poly)
         trail.set_data(states[: i + 1, 0], states[: i + 1, 1])
         pusher.center = tuple(states[i, 3:])
         mode = MODE_NAMES[modes[min(i, len(modes) - 1)]] if len(modes) else "free"
         pusher.set_color(MODE_COLORS[mode])
-        text.set_text(f"t = {i * 0.04:5.2f} s   {mode}")
-        return [*patches, trail, pusher, text]
+        text.set_text(f"t = {i * control_period:5.2f} s   {mode}   ({speed})")
+        fig.canvas.restore_region(background)
+        for artist in (*patches, trail, pusher, text):
+            ax.draw_artist(artist)
+        images.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
+    plt.close(fig)
+    return _write_video(images, Path(path), fps)
 
-    anim = FuncAnimation(fig, draw, frames=frames, blit=False)
-    try:
+
+def _write_video(images: list[np.ndarray], path: Path, fps: float) -> str:
+    """Frames (H, W, 3) uint8 to an MP4 through ffmpeg when ``path`` ends in .mp4 and ffmpeg is
+    on the PATH, otherwise to a GIF beside it; atomic either way. Returns the path written."""
+    import shutil
+    import subprocess
+
+    from PIL import Image
+
+    ffmpeg = shutil.which("ffmpeg")
+    if path.suffix == ".mp4" and ffmpeg:
+        h, w = images[0].shape[:2]
         with atomic_path(path) as tmp:
-            anim.save(tmp, writer=PillowWriter(fps=fps))
-    finally:
-        plt.close(fig)
+            cmd = [ffmpeg, "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{w}x{h}",
+                   "-r", f"{fps:g}", "-i", "-", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p",
+                   "-f", "mp4", str(tmp)]
+            subprocess.run(cmd, input=b"".join(im.tobytes() for im in images), check=True)
+        return str(path)
+    path = path.with_suffix(".gif")
+    # one palette for all frames (no flicker), fitted to a montage of frames and the contact-mode colours
+    picks = [images[k] for k in np.linspace(0, len(images) - 1, min(12, len(images))).astype(int)]
+    swatch = np.zeros((8, images[0].shape[1], 3), np.uint8)
+    for k, color in enumerate(MODE_COLORS.values()):
+        swatch[:, k * 8:(k + 1) * 8] = (np.array(matplotlib.colors.to_rgb(color)) * 255).astype(np.uint8)
+    palette = Image.fromarray(np.concatenate([*picks, swatch])).quantize(colors=96)
+    frames = [Image.fromarray(im).quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
+    with atomic_path(path) as tmp:
+        frames[0].save(tmp, format="GIF", save_all=True, append_images=frames[1:], duration=round(1000 / fps),
+                       loop=0)
+    return str(path)
+
+
+def plot_fit(shape: Shape, recorded: list[np.ndarray], replayed: list[np.ndarray], summary: dict,
+             path: str | os.PathLike | None = None, max_pushes: int = 6) -> plt.Figure:
+    """Recorded pushes (object pose and pusher) against the model's open-loop replays with the fitted λ."""
+    n = min(len(recorded), max_pushes)
+    cols = min(n, 3)
+    rows = -(-n // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 3.2 * rows), squeeze=False)
+    for k, ax in enumerate(axes.ravel()):
+        if k >= n:
+            ax.axis("off")
+            continue
+        rec, rep = np.asarray(recorded[k]), np.asarray(replayed[k])
+        _setup_axes(ax, shape, rec, rec[-1, :3], np.zeros((0, 3)), goal_label="recorded, end")
+        _draw_pose(ax, shape, rec[0, :3], fc="0.85", ec="0.5", label="start")
+        _draw_pose(ax, shape, rep[-1, :3], fill=False, ec="#1f77b4", lw=1.5, label="model, end")
+        ax.plot(rec[:, 0], rec[:, 1], "k-", lw=1.2, label="object (recorded)")
+        ax.plot(rep[:, 0], rep[:, 1], "--", color="#1f77b4", lw=1.2, label="object (model)")
+        ax.plot(rec[:, 3], rec[:, 4], ":", color="c", lw=1, label="pusher")
+        ax.set_title(f"push {k}", fontsize=8)
+        if k == 0:
+            ax.legend(fontsize=6, loc="best")
+    lam, std = summary["lambda"], summary["lambda_std"]
+    fig.suptitle(f"fitted λ = [{lam[0]:.1f} ± {std[0]:.1f}, {lam[1] * 1e3:.1f} ± {std[1] * 1e3:.1f} mm, "
+                 f"{lam[2] * 1e3:.1f} ± {std[2] * 1e3:.1f} mm], μ_c = {summary['mu_c']:.2f}: whole push "
+                 f"{summary['whole_push_error_mm']:.1f} mm / {summary['whole_push_error_deg']:.1f}°", fontsize=9)
+    fig.tight_layout()
+    if path is not None:
+        save_figure_atomic(fig, path, dpi=110)
+    return fig
 
 
 def plot_shapes(shapes: list[Shape], path: str | os.PathLike | None = None, normals: int = 24) -> plt.Figure:
@@ -225,9 +300,10 @@ def plot_confusion(per_object: dict, path: str | os.PathLike | None = None) -> p
     return fig
 
 
-def plot_params(params: np.ndarray, truth: object, path: str | os.PathLike | None = None,
+def plot_params(params: np.ndarray, truth: object | None, path: str | os.PathLike | None = None,
                 dt: float = 0.04, title: str = "") -> plt.Figure:
-    """β, x_bf and y_bf the controller planned with, against time, with λ_true."""
+    """β, x_bf and y_bf the controller planned with, against time, with λ_true (``truth``;
+    None for a world without one, such as the physics plant)."""
     params = np.asarray(params)
     t = np.arange(len(params)) * dt
     fig, axes = plt.subplots(3, 1, figsize=(6, 5), sharex=True)
@@ -235,7 +311,8 @@ def plot_params(params: np.ndarray, truth: object, path: str | os.PathLike | Non
     scale = (1.0, 1000.0, 1000.0)
     for i, ax in enumerate(axes):
         ax.plot(t, params[:, i] * scale[i], "b-", lw=1.2, label="estimate")
-        ax.axhline(np.asarray(truth)[i] * scale[i], color="k", ls="--", lw=1, label="λ_true")
+        if truth is not None:
+            ax.axhline(np.asarray(truth)[i] * scale[i], color="k", ls="--", lw=1, label="λ_true")
         ax.set_ylabel(labels[i])
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
