@@ -27,6 +27,7 @@ test-slow: $(STAMP)
 examples: $(STAMP)
 	$(BIN)/python examples/own_object.py --out out/examples
 	$(BIN)/python examples/gym_env.py
+	$(BIN)/python examples/robot_loop.py --out out/examples
 	$(BIN)/python examples/read_results.py docs/results/benchmark --out out/examples
 
 bench: $(STAMP)

@@ -2,7 +2,7 @@
 
     python benchmarks/physics_rtf.py [--seconds 4]
 
-A pusher drives each standard shape across the table at 0.1 m/s (the SPEC's top speed),
+A pusher drives each standard shape across the table at 0.1 m/s (the controller's speed limit v_max),
 stepped at the 25 Hz control rate as a controller would; prints one Markdown row per
 shape and a JSON line last.
 """

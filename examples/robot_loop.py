@@ -9,7 +9,7 @@ know, or ``--physics``: MuJoCo), seen through the realistic camera (15 Hz, 1 mm 
 noise, 60 ms latency, 5 % dropped frames). The controller estimates λ online (the UKF),
 commands the pusher at the camera's rate, and compensates the latency from each frame's
 capture time. ``--realtime`` paces the loop by the wall clock as a robot would. Writes the
-log in the format ``dexpush fit`` reads (``robot_log.csv``) and prints a one-line summary.
+log in the format ``dexpush fit`` reads (``robot_loop_log.csv``) and prints a one-line summary.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def main() -> None:
     settings = dexpush.ControllerSettings(
         estimate_params=True,                           # λ unknown: estimate it online
         mu=0.3,                                         # our guess of μ_c
-        mppi=dexpush.MPPISettings(control_period=1.0 / RATE_HZ, v_max=0.1))
+        mppi=dexpush.MPPISettings(control_period=1.0 / RATE_HZ, v_max=0.1, dt0=1.0 / RATE_HZ))
     controller = dexpush.PushingController(shape, goal, params=(15.0, 0.0, 0.0), settings=settings, seed=0)
 
     robot = StandInRobot(shape, args.physics)
@@ -92,7 +92,7 @@ def main() -> None:
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "robot_log.csv", "w", newline="") as fh:
+    with open(out / "robot_loop_log.csv", "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["t", "x", "y", "theta", "px", "py"])
         w.writerows(rows)
@@ -101,7 +101,7 @@ def main() -> None:
                       "lambda_estimate": np.round(controller.params, 4).tolist(),
                       "act_ms_median": round(float(np.median(latency_ms)), 2),
                       "act_ms_p99": round(float(np.percentile(latency_ms, 99)), 2),
-                      "rejected_frames": controller.rejected_frames, "log": str(out / "robot_log.csv")}))
+                      "rejected_frames": controller.rejected_frames, "log": str(out / "robot_loop_log.csv")}))
 
 
 if __name__ == "__main__":

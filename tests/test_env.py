@@ -60,3 +60,55 @@ def test_env_runs_a_users_own_plant_and_shape() -> None:
     assert env.camera.plant.steps == 1 and np.all(np.isfinite(obs2)) and reward < 0
     with pytest.raises(ValueError, match="not a plant"):
         PushEnv(plant=object())
+
+
+def test_random_goals_and_an_adjustable_success_gate() -> None:
+    env = PushEnv(task="I", goal="random", goal_range=((0.2, 0.4), (-0.1, 0.1)), success_position_m=0.05,
+                  success_heading_deg=20.0)
+    goals = []
+    for seed in range(5):
+        obs, info = env.reset(seed=seed)
+        goals.append(obs[5:8])
+        assert np.allclose(info["goal"], obs[5:8], atol=1e-6)
+        assert 0.2 <= obs[5] <= 0.4 and -0.1 <= obs[6] <= 0.1
+    assert len({tuple(np.round(g, 5)) for g in goals}) == 5
+    again, _ = env.reset(seed=2)
+    assert np.array_equal(again[5:8], goals[2])                   # reproducible by seed
+    # a pose 3 cm and 10° off passes the 5 cm / 20° gate, not the default 8 mm / 3°
+    g = env._goal
+    env.camera.reset([g[0] + 0.03, g[1], g[2] + np.radians(10)], [g[0] + 0.5, g[1] + 0.5])
+    assert env.step([0.0, 0.0])[2]
+    strict = PushEnv(goal=(0.3, 0.0, 0.0))
+    strict.reset(seed=0)
+    strict.camera.reset([0.33, 0.0, np.radians(10)], [0.9, 0.5])
+    assert not strict.step([0.0, 0.0])[2]
+    with pytest.raises(ValueError, match="goal must be"):
+        PushEnv(goal="anywhere")
+    with pytest.raises(ValueError, match="success gate"):
+        PushEnv(success_position_m=0.0)
+
+
+def test_the_vector_env_matches_the_single_env_and_autoresets() -> None:
+    from dexpush.env import VectorPushEnv
+
+    venv = gym.make_vec("dexpush/Push-v0", num_envs=4, vectorization_mode="vector_entry_point", task="II")
+    obs, info = venv.reset(seed=1)
+    assert obs.shape == (4, 8) and obs.dtype == np.float32 and info["is_success"].shape == (4,)
+    single = PushEnv(task="II")
+    single.reset(seed=0)
+    single.camera.reset(obs[2, :3].astype(float), obs[2, 3:5].astype(float))
+    actions = np.tile([[0.05, 0.02]], (4, 1)).astype(np.float32)
+    obs2, reward, terminated, truncated, _ = venv.step(actions)
+    s_obs, s_reward, *_ = single.step(actions[2])
+    np.testing.assert_allclose(obs2[2], s_obs, atol=1e-5)
+    assert reward[2] == pytest.approx(s_reward, abs=1e-5) and not terminated.any() and not truncated.any()
+    # an environment at its step limit is truncated and reset in the same step
+    short = VectorPushEnv(num_envs=3, max_steps=2)
+    first, _ = short.reset(seed=0)
+    short.step(np.zeros((3, 2)))
+    obs3, _, _, truncated, infos = short.step(np.zeros((3, 2)))
+    assert truncated.all() and infos["_final_obs"].all()
+    np.testing.assert_allclose(infos["final_obs"][:, :5], first[:, :5], atol=1e-6)   # held still: same pose
+    assert not np.allclose(obs3[:, :5], first[:, :5])                                  # new starts
+    with pytest.raises(ValueError, match="actions"):
+        short.step(np.zeros((2, 2)))

@@ -108,7 +108,7 @@ def test_random_convex_polygons_contour_is_at_pusher_radius(n: int, seed: int, r
     t = np.clip(np.sum(ap * ab, -1) / np.sum(ab * ab, -1), 0, 1)
     d = np.linalg.norm(ap - t[..., None] * ab, axis=-1).min(-1)
     # the 2048-entry Hermite table rounds the corner arcs: worst 25 µm over 150 random
-    # polygons (the example above); SPEC §3 allows the pusher 1 mm into the object
+    # polygons (the example above); docs/conventions.md#plants allows the pusher 1 mm into the object
     np.testing.assert_allclose(d, rho, atol=5e-5)
 
 

@@ -1,4 +1,4 @@
-"""C-GVMM: the physical properties of SPEC §2.2 and agreement with an independent reference."""
+"""C-GVMM: the physical properties of docs/conventions.md#motion-model and agreement with an independent reference."""
 
 from __future__ import annotations
 
@@ -80,7 +80,7 @@ def test_matches_independent_float64_reference(name: str) -> None:
     assert set(np.unique(ref_mode)) == {STICK, SLIDE_CCW, SLIDE_CW, FREE}  # all modes exercised
 
 
-# ----------------------------------------------------------------- SPEC §2.2 properties
+# ----------------------------------------------------------------- docs/conventions.md#motion-model properties
 @pytest.mark.parametrize("name", ["rect", "tee", "ellipse"])
 def test_kinematics_of_every_contact_mode(name: str) -> None:
     """eq. (6): R(θ)ᵀu = J*·V_sb + ∂φr·φ̇ in every contact mode (φ̇ = 0 in stick: the

@@ -1,4 +1,4 @@
-"""The MuJoCo physics plant (SPEC §3): scripted pushes behave as rigid bodies on a table should."""
+"""The MuJoCo physics plant (docs/conventions.md#plants): scripted pushes behave as rigid bodies on a table should."""
 
 from __future__ import annotations
 

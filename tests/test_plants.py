@@ -1,4 +1,4 @@
-"""The model plant: SPEC §3 behaviour, batching and bad input."""
+"""The model plant: docs/conventions.md#plants behaviour, batching and bad input."""
 
 from __future__ import annotations
 

@@ -89,7 +89,7 @@ def test_bad_trial_is_named() -> None:
 
 
 def test_touching_an_obstacle_fails_the_trial_at_the_touch() -> None:
-    """SPEC §5: a disc under the object's start touches it at once; the trial ends there."""
+    """docs/conventions.md#benchmark-tasks: a disc under the object's start touches it at once; the trial ends there."""
     from dexpush.tasks import Task
 
     task = Task("X", "touch", goal=(0.6, 0.0, 0.0), obstacles=((0.0, 0.0, 0.02),))

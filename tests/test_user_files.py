@@ -208,3 +208,17 @@ def test_fit_needs_contact(tmp_path: Path) -> None:
     rows = np.stack([t, 0 * t, 0 * t, 0 * t, 0.3 + 0.05 * t, 0 * t], -1)   # the pusher never comes near
     np.savetxt(tmp_path / "log.csv", rows, delimiter=",", header="t,x,y,theta,px,py", comments="")
     assert main(["fit", str(tmp_path / "log.csv"), "--shape", "rect", "--quiet", "--out", str(tmp_path)]) == 2
+
+
+def test_the_robot_loop_example_runs_and_logs_what_fit_reads(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    script = Path(__file__).resolve().parents[1] / "examples" / "robot_loop.py"
+    proc = subprocess.run([sys.executable, str(script), "--max-steps", "30", "--out", str(tmp_path)],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert summary["commands"] == 30 and np.all(np.isfinite(summary["lambda_estimate"]))
+    (push,) = read_log(tmp_path / "robot_loop_log.csv")          # the log is in the format `dexpush fit` reads
+    assert push.object_pose.shape[1] == 3 and len(push.time) >= 25 * 1.5

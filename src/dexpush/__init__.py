@@ -24,4 +24,4 @@ from dexpush.tasks import Task
 __all__ = ["LAMBDA_TRUE", "MODE_NAMES", "Camera", "Controller", "ControllerSettings", "MPPISettings", "Observation",
            "Plant", "PushingController", "SensorSettings", "Shape", "Task", "UKFSettings", "cgvmm", "contact_solution",
            "force_motion", "run_episode", "run_loop"]
-__version__ = "0.2.0"
+__version__ = "0.3.0"

@@ -1,4 +1,5 @@
-"""The paper's benchmark (Sec. IV-B, SPEC §5): every condition's trials, resumably, and their figures.
+"""The paper's benchmark (Sec. IV-B; docs/conventions.md#benchmark-tasks): every condition's trials,
+resumably, and their figures.
 
 :func:`run_benchmark` runs the trials of every condition (task × shape × params × method).
 On the model plant with exact observations, the MPPI trials of all conditions of one task
@@ -239,8 +240,10 @@ def _draw_condition(out: Path, name: str, shape: Shape, task: Task, recs: dict[i
         return
     seeds = sorted(s for s in trajs if s in recs)
     ok = sum(recs[s]["success"] for s in seeds)
+    first = recs[seeds[0]] if seeds else {}
     fig = plot_condition(shape, [trajs[s] for s in seeds], [recs[s]["success"] for s in seeds], np.asarray(task.goal),
                np.asarray(task.obstacles).reshape(-1, 3),
-               title=f"{name.replace('_', ' · ')}: {ok}/{len(seeds)} successes",
+               title=f"{name.replace('_', ' · ')} · {first.get('plant', 'model')} plant · camera: "
+                     f"{first.get('sensor', 'exact')}: {ok}/{len(seeds)} successes",
                path=out / "figures" / f"{name}.png")
     plt.close(fig)

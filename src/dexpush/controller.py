@@ -1,4 +1,4 @@
-"""``PushingController``: what a robot's control loop calls (SPEC §8).
+"""``PushingController``: what a robot's control loop calls (docs/conventions.md#public-api).
 
     ctrl = PushingController(shape, goal=(0.6, 0.3, 0.0), params=(25.0, -0.01, 0.02))
     ctrl.reset(object_pose, pusher_xy)

@@ -7,7 +7,7 @@
     d²(q₁, q₂) = ‖Δp‖² + c · (1 − cos Δθ)        ("decoupled distance")
 
 Obstacles are discs ``(c_x, c_y, radius)``. ``isCollision`` covers both the object's
-footprint (not inflated) and the pusher disc (SPEC §4).
+footprint (not inflated) and the pusher disc (docs/conventions.md#controller).
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ class Scene:
 
         The effective r_s is max(r_s, R_max + r_s_clearance), R_max the largest radius of
         the inflated contour. Table II's r_s = 0.2 m suits the paper's objects, but the
-        SPEC's T reaches 0.195 m from its reference: with r_s = 0.2 the ReLU term (9d)
+        standard T reaches 0.187 m from its reference: with r_s = 0.2 the ReLU term (9d)
         charges q_r2 = 1e4 per metre and step for walking around the stem, which traps
         the pusher on one side of it. Measured (docs/controller.md): the three tee
         episodes of seeds 0–4 that failed with 0.2 all succeed with 0.237.

@@ -158,7 +158,7 @@ class ValidationResult:
 
 def validate(pushes: list[Push], mu: float = 0.25, separation_mm: float = 3.0, stick_ratio: float = 0.1,
              min_speed_mm_s: float = 5.0, fit_full: bool = True) -> ValidationResult:
-    """Mode agreement, confusion matrix and prediction errors per object (SPEC §6)."""
+    """Mode agreement, confusion matrix and prediction errors per object (docs/conventions.md#model-validation)."""
     if not pushes:
         raise ValueError("no pushes to validate")
     summary: dict = {"pushes": len(pushes), "samples": 0, "mu_c": mu, "objects": {}}

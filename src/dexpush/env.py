@@ -25,8 +25,15 @@
 * ``mppi``: :class:`dexpush.MPPISettings` whose ``v_max`` bounds the actions and whose
   ``control_period`` is how long each action is held.
 
-Each reset draws a start from the task's distribution (SPEC §5) with the environment's
-``np_random``, so ``reset(seed=s)`` is reproducible.
+* ``goal``: ``None`` (the task's), a pose (x, y, θ), or ``"random"``: a new goal at each reset,
+  uniform in ``goal_range`` = ((x_lo, x_hi), (y_lo, y_hi)) (m) and θ ∈ [−π, π).
+* ``success_position_m``, ``success_heading_deg``: the success gate (default 8 mm and 3°).
+
+Each reset draws a start from the task's distribution (docs/conventions.md#benchmark-tasks)
+with the environment's ``np_random``, so ``reset(seed=s)`` is reproducible.
+
+:class:`VectorPushEnv` runs ``num_envs`` copies on the model plant as one batch (one
+compiled, vectorised plant step per ``step``), with Gymnasium's same-step autoreset.
 """
 
 from __future__ import annotations
@@ -41,12 +48,56 @@ from dexpush.cost import CostWeights
 from dexpush.geometry import Shape
 from dexpush.interfaces import Plant, check_plant
 from dexpush.mppi import MPPISettings
+from dexpush.plants import ModelPlant
 from dexpush.registry import PLANTS, make_plant, make_shape
 from dexpush.se2 import wrap_angle
 from dexpush.sensing import Camera, SensorSettings
-from dexpush.tasks import MAX_STEPS, get_task, initial_conditions, is_success
+from dexpush.tasks import MAX_STEPS, SUCCESS_HEADING_DEG, SUCCESS_POSITION_M, Task, get_task, initial_conditions
 
-__all__ = ["PushEnv"]
+__all__ = ["PushEnv", "VectorPushEnv"]
+
+_OBS_LIMIT = np.array([10.0, 10.0, np.pi, 10.0, 10.0, 10.0, 10.0, np.pi], np.float32)
+
+
+def _observation(q: np.ndarray, p: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """[object pose, pusher, goal] (..., 8), headings wrapped, clipped to the observation box."""
+    obs = np.concatenate([q, p, goal], -1)
+    obs[..., [2, 7]] = wrap_angle(obs[..., [2, 7]])
+    return np.clip(obs, -_OBS_LIMIT, _OBS_LIMIT).astype(np.float32)
+
+
+def _reward(q: np.ndarray, goal: np.ndarray, c: float) -> np.ndarray:
+    """−d, the decoupled distance of eq. (9), for poses (..., 3) and goals (..., 3)."""
+    d2 = np.sum((q[..., :2] - goal[..., :2]) ** 2, -1) + c * (1.0 - np.cos(q[..., 2] - goal[..., 2]))
+    return -np.sqrt(d2)
+
+
+class _Goals:
+    """The goal setting shared by both envs: fixed, the task's, or drawn at each reset; and the gate."""
+
+    def __init__(self, task: Task, goal: object, goal_range: object, position_m: float, heading_deg: float) -> None:
+        if isinstance(goal, str) and goal != "random":
+            raise ValueError(f"goal must be None, 'random' or a pose (x, y, θ), got {goal!r}")
+        self.random = goal == "random"
+        self.fixed = np.asarray(task.goal if goal is None or self.random else goal, np.float64)
+        if self.fixed.shape != (3,) or not np.all(np.isfinite(self.fixed)):
+            raise ValueError(f"goal must be a finite pose (x, y, θ), got {goal!r}")
+        self.range = np.asarray(goal_range, np.float64)
+        if self.range.shape != (2, 2) or not np.all(self.range[:, 0] <= self.range[:, 1]):
+            raise ValueError(f"goal_range must be ((x_lo, x_hi), (y_lo, y_hi)), got {goal_range!r}")
+        if not (position_m > 0 and heading_deg > 0):
+            raise ValueError(f"the success gate must be positive, got {position_m!r} m and {heading_deg!r}°")
+        self.position_m, self.heading_deg = float(position_m), float(heading_deg)
+
+    def draw(self, rng: np.random.Generator) -> np.ndarray:
+        if not self.random:
+            return self.fixed.copy()
+        return np.array([rng.uniform(*self.range[0]), rng.uniform(*self.range[1]), rng.uniform(-np.pi, np.pi)])
+
+    def success(self, q: np.ndarray, goal: np.ndarray) -> np.ndarray:
+        pos = np.linalg.norm(q[..., :2] - goal[..., :2], axis=-1)
+        head = np.degrees(np.abs(wrap_angle(q[..., 2] - goal[..., 2])))
+        return (pos < self.position_m) & (head < self.heading_deg)
 
 
 class PushEnv(gym.Env):
@@ -56,7 +107,9 @@ class PushEnv(gym.Env):
 
     def __init__(self, task: str = "I", shape: str | Shape = "rect", plant: str | Plant = "model",
                  sensor: SensorSettings | None = None, max_steps: int = MAX_STEPS,
-                 render_mode: str | None = None, mppi: MPPISettings | None = None) -> None:
+                 render_mode: str | None = None, mppi: MPPISettings | None = None, goal: object = None,
+                 goal_range: object = ((-0.5, 0.5), (-0.5, 0.5)), success_position_m: float = SUCCESS_POSITION_M,
+                 success_heading_deg: float = SUCCESS_HEADING_DEG) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         if isinstance(plant, str) and plant not in PLANTS:
@@ -76,33 +129,30 @@ class PushEnv(gym.Env):
         self.control_period = mppi.control_period
         v = mppi.v_clip
         self.action_space = spaces.Box(-v, v, shape=(2,), dtype=np.float32)
-        lim = np.array([10.0, 10.0, np.pi, 10.0, 10.0, 10.0, 10.0, np.pi], np.float32)
-        self.observation_space = spaces.Box(-lim, lim, dtype=np.float32)
-        self._goal = np.asarray(self.task.goal, np.float64)
+        self.observation_space = spaces.Box(-_OBS_LIMIT, _OBS_LIMIT, dtype=np.float32)
+        self.goals = _Goals(self.task, goal, goal_range, success_position_m, success_heading_deg)
+        self._goal = self.goals.fixed.copy()
         self._obs: np.ndarray | None = None
         self._steps = 0
 
     def _observation(self, frame: Any) -> np.ndarray:
         if frame is not None:
-            obs = np.concatenate([frame.object_pose, frame.pusher_xy, self._goal])
-            obs[[2, 7]] = wrap_angle(obs[[2, 7]])           # headings in [−π, π]
-            lim = self.observation_space.high
-            self._obs = np.clip(obs, -lim, lim).astype(np.float32)
+            self._obs = _observation(np.asarray(frame.object_pose), np.asarray(frame.pusher_xy), self._goal)
         return self._obs.copy()
 
     def _reward_and_success(self) -> tuple[float, bool]:
         q = self.camera.state[:3]
-        d2 = np.sum((q[:2] - self._goal[:2]) ** 2) + self._c * (1.0 - np.cos(q[2] - self._goal[2]))
-        return -float(np.sqrt(d2)), bool(is_success(q, self._goal))
+        return float(_reward(q, self._goal, self._c)), bool(self.goals.success(q, self._goal))
 
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, dict]:
         super().reset(seed=seed)
         trial = int(self.np_random.integers(0, 2**31 - 1))
         pose, pusher = initial_conditions(self.task, self.shape, trial)
+        self._goal = self.goals.draw(self.np_random)
         self._steps = 0
         obs = self._observation(self.camera.reset(pose, pusher))
         _, ok = self._reward_and_success()
-        return obs, {"is_success": ok, "trial_seed": trial}
+        return obs, {"is_success": ok, "trial_seed": trial, "goal": self._goal.copy()}
 
     def step(self, action: object) -> tuple[np.ndarray, float, bool, bool, dict]:
         if self._obs is None:
@@ -144,4 +194,86 @@ class PushEnv(gym.Env):
         return img
 
 
-gym.register(id="dexpush/Push-v0", entry_point="dexpush.env:PushEnv", max_episode_steps=None)
+class VectorPushEnv(gym.vector.VectorEnv):
+    """``num_envs`` pushing environments on the model plant, stepped as one batch.
+
+    Same observations, actions, reward, goals and success gate as :class:`PushEnv` (exact
+    observations; no camera), one (num_envs, ·) array each. An environment that terminates
+    or truncates is reset in the same ``step`` (Gymnasium's ``SAME_STEP`` autoreset): the
+    returned observation is its new start, ``infos["final_obs"]`` holds the last one.
+    ``params`` and ``mu`` are the plant's true λ and μ_c.
+    """
+
+    metadata: ClassVar[dict] = {"autoreset_mode": gym.vector.AutoresetMode.SAME_STEP}
+
+    def __init__(self, num_envs: int = 16, task: str = "I", shape: str | Shape = "rect",
+                 max_steps: int = MAX_STEPS, mppi: MPPISettings | None = None, goal: object = None,
+                 goal_range: object = ((-0.5, 0.5), (-0.5, 0.5)), success_position_m: float = SUCCESS_POSITION_M,
+                 success_heading_deg: float = SUCCESS_HEADING_DEG, params: object = None, mu: float = 0.3) -> None:
+        if isinstance(num_envs, bool) or int(num_envs) != num_envs or num_envs < 1:
+            raise ValueError(f"num_envs must be a whole number >= 1, got {num_envs!r}")
+        if int(max_steps) < 1:
+            raise ValueError(f"max_steps must be >= 1, got {max_steps}")
+        self.num_envs, self.max_steps = int(num_envs), int(max_steps)
+        self.task = get_task(task)
+        self.shape = make_shape(shape) if isinstance(shape, str) else shape
+        if not isinstance(self.shape, Shape):
+            raise ValueError(f"shape must be a name or a dexpush.Shape, got {shape!r}")
+        self.plant = ModelPlant(self.shape, mu=mu) if params is None else ModelPlant(self.shape, params, mu=mu)
+        self.goals = _Goals(self.task, goal, goal_range, success_position_m, success_heading_deg)
+        mppi = mppi or MPPISettings()
+        self.control_period = mppi.control_period
+        self._c = CostWeights().c
+        v = mppi.v_clip
+        self.single_action_space = spaces.Box(-v, v, shape=(2,), dtype=np.float32)
+        self.single_observation_space = spaces.Box(-_OBS_LIMIT, _OBS_LIMIT, dtype=np.float32)
+        self.action_space = gym.vector.utils.batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = gym.vector.utils.batch_space(self.single_observation_space, self.num_envs)
+        self._goal = np.tile(self.goals.fixed, (self.num_envs, 1))
+        self._steps = np.zeros(self.num_envs, int)
+        self._x: np.ndarray | None = None
+
+    def _starts(self, which: np.ndarray) -> None:
+        """New starts and goals for the environments in ``which`` (a bool mask)."""
+        for i in np.flatnonzero(which):
+            pose, pusher = initial_conditions(self.task, self.shape, int(self.np_random.integers(0, 2**31 - 1)))
+            self._x[i] = np.concatenate([pose, pusher])
+            self._goal[i] = self.goals.draw(self.np_random)
+            self._steps[i] = 0
+        self.plant.reset(self._x[:, :3], self._x[:, 3:])
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, dict]:
+        if seed is not None:
+            self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seed)
+        self._x = np.zeros((self.num_envs, 5))
+        self._starts(np.ones(self.num_envs, bool))
+        q = self._x[:, :3]
+        return _observation(q, self._x[:, 3:], self._goal), {"is_success": self.goals.success(q, self._goal)}
+
+    def step(self, actions: object) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
+        if self._x is None:
+            raise RuntimeError("call reset() before step()")
+        a = np.asarray(actions, dtype=np.float64)
+        if a.shape != (self.num_envs, 2) or not np.all(np.isfinite(a)):
+            raise ValueError(f"actions must be a finite ({self.num_envs}, 2) array of pusher velocities, "
+                             f"got shape {a.shape}")
+        a = np.clip(a, self.single_action_space.low, self.single_action_space.high)
+        self.plant.step(a, self.control_period)
+        self._x = self.plant.state.copy()
+        self._steps += 1
+        q = self._x[:, :3]
+        reward = _reward(q, self._goal, self._c)
+        success = self.goals.success(q, self._goal)
+        truncated = (self._steps >= self.max_steps) & ~success
+        obs = _observation(q, self._x[:, 3:], self._goal)
+        infos: dict = {"is_success": success}
+        done = success | truncated
+        if np.any(done):
+            infos["final_obs"], infos["_final_obs"] = obs.copy(), done
+            self._starts(done)
+            obs = _observation(self._x[:, :3], self._x[:, 3:], self._goal)
+        return obs, reward.astype(np.float64), success, truncated, infos
+
+
+gym.register(id="dexpush/Push-v0", entry_point="dexpush.env:PushEnv", vector_entry_point="dexpush.env:VectorPushEnv",
+             max_episode_steps=None)

@@ -17,7 +17,7 @@ Settings (:class:`UKFSettings`), and why:
 * ``process_std`` = (0.5 1/m, 0.5 mm, 0.5 mm) a step: lets β move by ~±15 1/m over a
   1-s window of contact, so an initial guess of 15 reaches 25 within seconds.
 * ``meas_pos_std`` = 1 mm, ``meas_heading_std`` = 0.5°: observation noise of a motion
-  capture or camera system (SPEC §3) plus the model's own replay error.
+  capture or camera system (docs/conventions.md#plants) plus the model's own replay error.
 * α = 1, β_ut = 2, κ = 0: sigma points at ±√3·σ; small α would probe λ only
   infinitesimally, where the piecewise (mode-switching) model is not smooth.
 * bounds β ∈ [2, 200] 1/m, |x_bf|, |y_bf| ≤ 5 cm: physical (β = f_max/m_max of objects of

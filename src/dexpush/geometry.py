@@ -98,7 +98,7 @@ class Shape:
             table_size: int = 2048) -> Shape:
         """A T: a top bar centred on the reference point and a stem hanging below it.
 
-        With the defaults (SPEC §2.1) the bar is 0.20 × 0.05 m about (0, 0) and the stem
+        With the defaults (docs/conventions.md#shapes) the bar is 0.20 × 0.05 m about (0, 0) and the stem
         0.05 × 0.15 m spans y ∈ [−0.175, −0.025]. The reference (0, 0) lies in the T's
         kernel; the T is not star-shaped about its centroid.
         """

@@ -4,7 +4,7 @@ This is the one implementation of the pushing physics in dexpush: the plants, MP
 UKF and the dataset validation all call :func:`solve_contact` (through :func:`cgvmm`,
 :func:`step` or :func:`integrate`).
 
-Conventions (SPEC §2):
+Conventions (docs/conventions.md#units-and-frames):
     state  x = [x_b, y_b, θ, x_c, y_c]   object pose in {S}, pusher centre in {S}
     input  u = [v_x, v_y]                pusher velocity in {S}
     params λ = [β, x_bf, y_bf]           β in 1/m, p_bf = CoF in {B}
@@ -18,7 +18,7 @@ inflated contour's radial vector and tangent:
     w       = N·R(θ)ᵀ·u = Γ·f_c + η·φ̇,  Γ = N·J*·C,  η = N·∂φr = [0, |∂φr|]  (eq. 6–7)
     f_c     = [f⁺ + f⁻, μ(f⁺ − f⁻)]                                         (eq. 8)
 
-Modes, tested in this order (SPEC §2.2): stick if [[1,1],[μ,−μ]]⁻¹Γ⁻¹w > 0; sliding CCW
+Modes, tested in this order (docs/conventions.md#motion-model): stick if [[1,1],[μ,−μ]]⁻¹Γ⁻¹w > 0; sliding CCW
 if [[1,g₀],[μ,g₁]]⁻¹Γ⁻¹w ≥ 0 (g = Γ⁻¹η); sliding CW if [[1,−g₀],[−μ,−g₁]]⁻¹Γ⁻¹w ≥ 0;
 otherwise, or when the pusher is outside the contour, free (separation).
 

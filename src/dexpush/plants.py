@@ -5,10 +5,10 @@ A plant owns the true state and answers ``reset(object_pose, pusher_xy)`` and
 satisfy the :class:`dexpush.interfaces.Plant` protocol. The controller only ever sees
 observations.
 
-:class:`ModelPlant` is the paper's numerical-experiment world (SPEC §3): the C-GVMM with
+:class:`ModelPlant` is the paper's numerical-experiment world (docs/conventions.md#plants): the C-GVMM with
 the true parameters λ_true, integrated with ``substeps`` Euler steps per control period
 and the penetration fix of :func:`dexpush.model.step`, so the pusher never ends a step
-inside the inflated contour by more than numerical round-off (the SPEC allows 1 mm).
+inside the inflated contour by more than numerical round-off (docs/conventions.md#plants allows 1 mm).
 It works on one scene or a batch: give poses with a leading batch axis.
 """
 
@@ -47,19 +47,19 @@ def _advance(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, dt: jnp.ndarray,
 
 
 class ModelPlant:
-    """The C-GVMM as the world, with true parameters (SPEC §3 "model plant").
+    """The C-GVMM as the world, with true parameters (docs/conventions.md#plants "model plant").
 
     Args:
         shape: the pushed object.
         params: true λ = [β, x_bf, y_bf]; default the paper's λ_true = [25, −0.01, 0.02].
         mu: true pusher–object friction μ_c.
-        substeps: Euler substeps per ``step`` call (≥ 10, SPEC §3).
+        substeps: Euler substeps per ``step`` call (≥ 10, docs/conventions.md#plants).
     """
 
     def __init__(self, shape: Shape, params: object = LAMBDA_TRUE, mu: float = 0.3,
                  substeps: int = 10) -> None:
         if substeps < 10:
-            raise ValueError(f"substeps must be >= 10 (SPEC §3), got {substeps}")
+            raise ValueError(f"substeps must be >= 10 (docs/conventions.md#plants), got {substeps}")
         if not (np.isfinite(mu) and mu > 0):
             raise ValueError(f"mu must be > 0, got {mu!r}")
         self.shape = shape
@@ -123,7 +123,7 @@ class ModelPlant:
 # ---------------------------------------------------------------------------- physics plant
 @dataclass(frozen=True)
 class PhysicsSettings:
-    """The MuJoCo scene of :class:`PhysicsPlant` (SPEC §3), with the reason for each value."""
+    """The MuJoCo scene of :class:`PhysicsPlant` (docs/conventions.md#plants), with the reason for each value."""
 
     mass: float = 0.5                 #: slider mass (kg)
     height: float = 0.02              #: slider height (m); the pusher touches its side at half height
@@ -220,7 +220,7 @@ def scene_xml(shape: Shape, settings: PhysicsSettings) -> str:
 
 
 class PhysicsPlant:
-    """A MuJoCo world standing in for the real robot (SPEC §3 "physics plant").
+    """A MuJoCo world standing in for the real robot (docs/conventions.md#plants "physics plant").
 
     The slider is a rigid body on a table with Coulomb friction, pushed by a kinematic
     (mocap) cylinder that follows the commanded velocity exactly, as a stiff

@@ -1,8 +1,9 @@
-"""What a finished trial leaves behind: its record (SPEC §5), its trajectory, and per-condition summaries.
+"""What a finished trial leaves behind: its record (docs/conventions.md#benchmark-tasks), its trajectory,
+and per-condition summaries.
 
 An :class:`EpisodeRecord` is JSON-friendly and is what the benchmark's condition files
 hold; an :class:`Episode` adds the sampled trajectory. :func:`summarize` gives the
-per-condition numbers of SPEC §5 (success rate, path lengths, time to goal, planning time).
+per-condition numbers of docs/conventions.md#benchmark-tasks (success rate, path lengths, time to goal, planning time).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ def condition_name(task: str, shape: str, params: str, method: str) -> str:
 
 @dataclass
 class EpisodeRecord:
-    """The per-trial record of SPEC §5 (JSON-friendly)."""
+    """The per-trial record of docs/conventions.md#benchmark-tasks (JSON-friendly)."""
 
     task: str
     shape: str
@@ -94,7 +95,7 @@ def sensor_label(sensor: SensorSettings | None) -> str:
 def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method: str, result: TrialResult,
                  lanes: int, scene: Scene | None = None, plant: str = "model",
                  sensor: SensorSettings | None = None, control_period: float = 0.04) -> Episode:
-    """The record (SPEC §5) and trajectory of a finished trial.
+    """The record (docs/conventions.md#benchmark-tasks) and trajectory of a finished trial.
 
     Contact modes are labelled with the C-GVMM at λ_true (for the trajectory figure);
     ``control_period`` converts steps to ``time_s``.
@@ -127,7 +128,7 @@ def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method:
 
 
 def summarize(trials: list[dict]) -> dict:
-    """Per-condition numbers of SPEC §5 from its trial records."""
+    """Per-condition numbers of docs/conventions.md#benchmark-tasks from its trial records."""
     ok = [t for t in trials if t["success"]]
 
     def mean_std(key: str) -> list[float] | None:

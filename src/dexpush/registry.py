@@ -1,6 +1,6 @@
 """Names the command line, the benchmark and the Gymnasium env accept, and what they build.
 
-* shapes: ``rect``, ``tee``, ``ellipse`` (SPEC §2.1 sizes);
+* shapes: ``rect``, ``tee``, ``ellipse`` (docs/conventions.md#shapes sizes);
 * parameter scenarios: ``known`` (λ_pred = λ_true) and ``unknown`` (λ_pred starts at [15, 0, 0]);
 * methods: ``mppi`` (fixed λ_pred), ``mppi-ukf`` (online estimation), ``gcs`` (plan and track);
 * plants: ``model`` (the C-GVMM with λ_true) and ``physics`` (MuJoCo).
@@ -33,7 +33,7 @@ PLANTS = ("model", "physics")
 
 
 def make_shape(name: str) -> Shape:
-    """The standard shapes of SPEC §2.1 by name."""
+    """The standard shapes of docs/conventions.md#shapes by name."""
     if name not in _SHAPE_MAKERS:
         raise ValueError(f"unknown shape {name!r}; choose one of {', '.join(SHAPES)}")
     return _SHAPE_MAKERS[name]()

@@ -51,7 +51,7 @@ def run_loop(plant: Plant, controller: Controller, task: Task, shape: Shape, obj
     Args:
         plant: the world (any :class:`dexpush.interfaces.Plant`).
         controller: any :class:`dexpush.interfaces.Controller`.
-        task: goal pose and obstacles (success: 8 mm and 3° on the true pose, SPEC §5).
+        task: goal pose and obstacles (success: 8 mm and 3° on the true pose, docs/conventions.md#benchmark-tasks).
         shape: the object, for the obstacle-contact check.
         object_pose, pusher_xy: the start.
         sensor: what the controller sees (default: the exact state every control period).
@@ -89,7 +89,7 @@ def run_loop(plant: Plant, controller: Controller, task: Task, shape: Shape, obj
         success = bool(is_success(camera.state[:3], task.goal))
         bar.update(1)
         if scene is not None and bool(collides(jnp.asarray(camera.state, jnp.float32), scene)):
-            success = False                  # touching the obstacle fails the trial (SPEC §5)
+            success = False          # touching the obstacle fails the trial (conventions.md#benchmark-tasks)
             break
     bar.close()
     return TrialResult(spec or TrialSpec(0), success, np.asarray(states), np.asarray(commands).reshape(-1, 2),
@@ -151,7 +151,7 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
                 method: str = "mppi", seed: int = 0, max_steps: int = MAX_STEPS,
                 settings: ControllerSettings | None = None, progress: bool = False, lanes: int = 1,
                 chunk: int = 25, plant: str | Plant = "model", sensor: SensorSettings | None = None) -> Episode:
-    """Run one closed-loop trial (SPEC §5) and record it.
+    """Run one closed-loop trial (docs/conventions.md#benchmark-tasks) and record it.
 
     ``params`` is ``"known"``, ``"unknown"`` or a λ_pred = [β, x_bf, y_bf] to start from
     (recorded as ``custom``).

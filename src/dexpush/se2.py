@@ -1,7 +1,7 @@
 """Planar rigid-body (SE(2)) helpers shared by every layer: angle wrapping, rotations, pose error.
 
 A pose is (x, y, θ) in metres and radians, θ measured counter-clockwise from the world x
-axis. Angles are wrapped to (−π, π] only where two are compared (SPEC §2). Every function
+axis. Angles are wrapped to (−π, π] only where two are compared (docs/conventions.md#units-and-frames). Every function
 takes an array module ``xp``: numpy (default; results in float64) or ``jax.numpy`` inside
 jit, so the same definition serves plotting, bookkeeping and compiled rollouts.
 """

@@ -1,4 +1,4 @@
-"""Realistic sensing on any plant: pose noise, a camera rate, latency and dropped frames (SPEC §3).
+"""Realistic sensing on any plant: pose noise, a camera rate, latency and dropped frames (docs/conventions.md#plants).
 
 :class:`Camera` wraps any :class:`dexpush.interfaces.Plant` (the model plant, the MuJoCo
 plant, your own). The control loop still calls ``step(velocity, dt)``
@@ -54,7 +54,7 @@ class SensorSettings:
 
     @staticmethod
     def realistic(seed: int = 0) -> SensorSettings:
-        """A camera as in SPEC §3 / issue 6: 15 Hz, 1 mm and 0.5° noise, 60 ms latency, 5 % drops."""
+        """A camera as in docs/conventions.md#plants / issue 6: 15 Hz, 1 mm and 0.5° noise, 60 ms latency, 5 % drops."""
         return SensorSettings(1e-3, float(np.radians(0.5)), 0.0, 15.0, 0.06, 0.05, seed)
 
     @property

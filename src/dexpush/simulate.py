@@ -16,7 +16,7 @@ batch or which lane it ran in (``tests/test_simulate.py`` checks this bit for bi
 program, which may round differently (XLA picks fusions and FMA contractions by shape):
 episodes then agree to float32 round-off at first, and a closed loop may amplify that.
 
-Touching an obstacle fails a trial (SPEC §5): the logged states are checked after each
+Touching an obstacle fails a trial (docs/conventions.md#benchmark-tasks): the logged states are checked after each
 chunk and a trial that touched ends there, as a failure, its log cut at the touch.
 
 A finished lane is frozen (``jnp.where(done, old, new)``) until it is refilled; under
@@ -133,7 +133,7 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
     """Run ``trials`` of ``task`` on ``shape`` in closed loop on the model plant, batched.
 
     Args:
-        task, shape: the scene (goal, obstacles, start distribution of SPEC §5).
+        task, shape: the scene (goal, obstacles, start distribution of docs/conventions.md#benchmark-tasks).
         trials: the trials to run; results come back in the same order.
         settings: the controller's settings (``estimate_params`` is ignored: each
             :class:`TrialSpec` says whether its controller estimates λ).
@@ -157,7 +157,7 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
     if max_steps < 1 or lanes < 1 or chunk < 1:
         raise ValueError(f"max_steps, lanes and chunk must be >= 1, got {max_steps}, {lanes}, {chunk}")
     if substeps < 10:
-        raise ValueError(f"substeps must be >= 10 (SPEC §3), got {substeps}")
+        raise ValueError(f"substeps must be >= 10 (docs/conventions.md#plants), got {substeps}")
     for spec in trials:
         check_params(checked_vector("params", spec.params, 3))
         if int(spec.seed) < 0:
@@ -218,7 +218,7 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
         rejected, resets = np.asarray(batch.policy.estimator.rejected), np.asarray(batch.policy.estimator.resets)
         # each lane's share of the step's wall time: a trial pays for its own lane, not for idle ones
         ms = (time.perf_counter() - t0) * 1e3 / (n_lanes * chunk)
-        # touching an obstacle ends a trial as a failure (SPEC §5); checked here on the logged
+        # touching an obstacle ends a trial as a failure (conventions.md#benchmark-tasks); checked on the logged
         # states rather than inside the compiled step, whose program (and rounding) it would change
         hits = np.asarray(_collides(jnp.asarray(xs), scene)) if len(task.obstacles) else np.zeros(active.shape, bool)
         for k, i in enumerate(owner):

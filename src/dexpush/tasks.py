@@ -1,4 +1,4 @@
-"""The paper's benchmark tasks (Sec. IV-B) made concrete by SPEC §5.
+"""The paper's benchmark tasks (Sec. IV-B) made concrete by docs/conventions.md#benchmark-tasks.
 
 * Task I, long re-positioning: goal (0.60, 0.30, 0).
 * Task II, re-orientation: goal (0, 0, π/2).
@@ -71,7 +71,7 @@ def get_task(name: str | Task) -> Task:
 
 
 def initial_conditions(task: Task, shape: Shape, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Start pose and pusher position of trial ``seed`` (SPEC §5)."""
+    """Start pose and pusher position of trial ``seed`` (docs/conventions.md#benchmark-tasks)."""
     if int(seed) < 0:
         raise ValueError(f"seed must be >= 0, got {seed}")
     rng = np.random.default_rng(int(seed))
