@@ -181,6 +181,9 @@ def _cmd_fit(args: argparse.Namespace) -> dict:
         shape = load_shape(args.shape)
     else:
         kinds = {p.shape for p in pushes}
+        if len(kinds) > 1 and kinds <= set(OBJECTS):
+            raise ValueError(f"the log holds pushes of several objects ({', '.join(sorted(kinds))}); fit one object "
+                             "at a time (a folder with only its files)")
         if len(kinds) != 1 or next(iter(kinds)) not in OBJECTS:
             raise ValueError("--shape is needed: the object's footprint (rect, tee, ellipse or a shape file), "
                              "with the logged pose being its reference point")

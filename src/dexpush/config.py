@@ -30,7 +30,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import tomllib
 import types
 import typing
 from dataclasses import dataclass, field, fields, is_dataclass
@@ -39,6 +38,7 @@ from typing import Any
 
 from dexpush.checks import check_params, check_positive, checked_vector
 from dexpush.controller import ControllerSettings
+from dexpush.files import read_toml
 from dexpush.geometry import Shape
 from dexpush.interfaces import Plant
 from dexpush.model import LAMBDA_TRUE
@@ -161,13 +161,7 @@ def load_config(path: str | os.PathLike, overrides: dict[str, dict] | None = Non
     """The :class:`RunConfig` of a TOML file (see the module docstring), with ``overrides``
     (tables of keys, as :meth:`RunConfig.replace`) applied on top."""
     path = Path(path)
-    try:
-        with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ValueError(f"config file {str(path)!r} does not exist") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"config file {path}: not valid TOML ({exc})") from None
+    doc = read_toml(path, "config file")
     doc.pop("shape", None)                      # a shape table may live in the same file (Shape.from_file)
     shape = doc.get("run", {}).get("shape") if isinstance(doc.get("run"), dict) else None
     if isinstance(shape, str) and shape.endswith(".toml") and not Path(shape).is_absolute():

@@ -1,4 +1,4 @@
-"""Atomic result files: write to a temporary file beside the target, then rename."""
+"""Files: atomic result files (write to a temporary file beside the target, then rename), and TOML input."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["atomic_path", "write_json_atomic"]
+__all__ = ["atomic_path", "read_toml", "write_json_atomic"]
 
 
 @contextmanager
@@ -34,3 +34,16 @@ def write_json_atomic(path: str | os.PathLike, data: object) -> None:
     """Write ``data`` as indented JSON, atomically."""
     with atomic_path(path) as tmp:
         tmp.write_text(json.dumps(data, indent=2) + "\n")
+
+
+def read_toml(path: str | os.PathLike, what: str) -> dict:
+    """A TOML file as a dict; a missing or malformed file is a ``ValueError`` naming ``what`` it was."""
+    import tomllib
+
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise ValueError(f"{what} {str(path)!r} does not exist") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{what} {path}: not valid TOML ({exc})") from None

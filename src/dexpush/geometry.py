@@ -40,6 +40,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.checks import check_positive
+from dexpush.files import read_toml
 from dexpush.polygons import (
     as_polygon,
     check_table_size,
@@ -201,16 +202,8 @@ class Shape:
         Other tables in the file are ignored, so one file can hold a shape and a run's
         settings. See ``docs/conventions.md#shapes``.
         """
-        import tomllib
-
         path = Path(path)
-        try:
-            with open(path, "rb") as fh:
-                doc = tomllib.load(fh)
-        except FileNotFoundError:
-            raise ValueError(f"shape file {str(path)!r} does not exist") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise ValueError(f"shape file {path}: not valid TOML ({exc})") from None
+        doc = read_toml(path, "shape file")
         table = doc.get("shape")
         if not isinstance(table, dict):
             raise ValueError(f"shape file {path}: no [shape] table (see Shape.from_file for the format)")
