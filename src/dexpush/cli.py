@@ -107,8 +107,6 @@ def _run_config(args: argparse.Namespace):
 
 
 def _cmd_run(args: argparse.Namespace) -> dict:
-    from dataclasses import replace
-
     from dexpush.config import build_plant, build_task, lambda_pred, load_shape, to_toml
     from dexpush.model import LAMBDA_TRUE
     from dexpush.runner import run_episode
@@ -125,7 +123,7 @@ def _cmd_run(args: argparse.Namespace) -> dict:
     task = build_task(run)
     sensor = config.sensor if config.sensor != type(config.sensor)() else None
     params = run.params if run.lambda_pred is None else lambda_pred(run)
-    settings = replace(config.controller)
+    settings = config.controller
     episode = run_episode(task, shape, params=params, method=run.method, seed=run.seed,
                           max_steps=run.max_steps, settings=settings, progress=not args.quiet, lanes=args.lanes,
                           plant=build_plant(config, shape), sensor=sensor)
