@@ -89,20 +89,16 @@ _RUN_KEYS = ("task", "shape", "goal", "params", "lambda_pred", "method", "seed",
 
 def _run_config(args: argparse.Namespace):
     """The effective :class:`dexpush.config.RunConfig`: defaults, then ``--config``, then the flags."""
-    from dexpush.config import default_config, load_config
+    from dexpush.config import default_config, load_config, to_dict
 
     over: dict = {"run": {k: getattr(args, k) for k in _RUN_KEYS if getattr(args, k, None) is not None}}
     if getattr(args, "obstacle", None) is not None:
-        over["run"]["obstacles"] = [list(o) for o in args.obstacle]
+        over["run"]["obstacles"] = args.obstacle
     if args.samples is not None:
         over["controller"] = {"mppi": {"num_samples": args.samples}}
     sensor = _sensor_flags(args)
     if sensor is not None:
-        over["sensor"] = {f: getattr(sensor, f) for f in ("pos_std_m", "heading_std_rad", "pusher_std_m", "rate_hz",
-                                                          "latency_s", "drop_prob", "seed")}
-    for k in ("goal", "lambda_pred", "true_params"):
-        if k in over["run"]:
-            over["run"][k] = list(over["run"][k])
+        over["sensor"] = to_dict(sensor)
     return load_config(args.config, over) if getattr(args, "config", None) else default_config(over)
 
 
