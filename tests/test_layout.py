@@ -12,7 +12,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "dexpush"
 #: lowest first; a module may import only from strictly lower layers (or its own sub-package)
 LAYERS = [
     {"fastmath", "se2", "checks", "files", "compile_cache", "polygons"},
-    {"geometry", "interfaces"},
+    {"geometry", "interfaces", "corner"},
     {"model"},
     {"cost", "mppi", "ukf", "tasks", "fitting"},
     {"estimator", "dataset", "viz"},

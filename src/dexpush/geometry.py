@@ -44,6 +44,7 @@ from dexpush.files import read_toml
 from dexpush.polygons import (
     as_polygon,
     check_table_size,
+    concave_corners,
     distance_to_polygons,
     dradius_from_normal,
     inside_polygon,
@@ -74,6 +75,10 @@ class Shape:
         dradius_table: R'(φ_i).
         origin: where the reference point lies in the frame the corners were given in
             (the body frame is that frame shifted by ``origin``; not rotated).
+        corners: (n_c, 6) concave corners of the inflated contour, rows
+            ``[c_x, c_y, n1_x, n1_y, n2_x, n2_y]``: where a pusher centre touches two faces
+            at once, with the two faces' inward unit normals
+            (:func:`dexpush.polygons.concave_corners`; none for convex shapes).
     """
 
     name: str
@@ -82,6 +87,7 @@ class Shape:
     radius_table: np.ndarray = field(repr=False)
     dradius_table: np.ndarray = field(repr=False)
     origin: tuple[float, float] = (0.0, 0.0)
+    corners: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)), repr=False)
 
     # ------------------------------------------------------------------ constructors
     @staticmethod
@@ -185,7 +191,8 @@ class Shape:
                 f"the contour seen from the reference point {tuple(ref)} is degenerate at azimuth "
                 f"{np.degrees(table_azimuths(table_size)[np.argmax(bad)]):.1f}° (a ray grazes the boundary); "
                 "move the reference further inside the shape")
-        return Shape(name, polys, rho, R, dR, (float(ref[0]), float(ref[1])))
+        corners = concave_corners(polys, rho, R, dR)
+        return Shape(name, polys, rho, R, dR, (float(ref[0]), float(ref[1])), corners)
 
     @staticmethod
     def from_file(path: str | os.PathLike, *, table_size: int = 2048) -> Shape:

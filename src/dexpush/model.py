@@ -36,10 +36,12 @@ import numpy as np
 
 from dexpush import fastmath
 from dexpush.checks import check_params, check_values, checked_vector
+from dexpush.corner import corner_fix, corner_solve, corner_table
 from dexpush.geometry import Shape, contour_lookup
 
 __all__ = [
     "CONTACT_TOL",
+    "CORNER",
     "FREE",
     "LAMBDA_TRUE",
     "MODE_NAMES",
@@ -60,8 +62,8 @@ __all__ = [
     "step",
 ]
 
-STICK, SLIDE_CCW, SLIDE_CW, FREE = 0, 1, 2, 3
-MODE_NAMES = ("stick", "slide_ccw", "slide_cw", "free")
+STICK, SLIDE_CCW, SLIDE_CW, FREE, CORNER = 0, 1, 2, 3, 4
+MODE_NAMES = ("stick", "slide_ccw", "slide_cw", "free", "corner")
 #: λ_true of the paper's numerical experiments (Sec. IV-B): [β, x_bf, y_bf]
 LAMBDA_TRUE = (25.0, -0.01, 0.02)
 #: contact test tolerance (m): in contact iff |p_c − p_b| ≤ |r(φ_c)| + CONTACT_TOL. One micron
@@ -71,9 +73,12 @@ CONTACT_TOL = 1e-6
 
 
 class Contour(NamedTuple):
-    """A shape's inflated contour as a cubic table (a pytree, so jit sees an array)."""
+    """A shape's inflated contour as a cubic table, and its concave corners (a pytree, so jit
+    sees arrays)."""
 
     coefficients: jnp.ndarray  #: (n, 4), see :func:`dexpush.geometry.hermite_coefficients`
+    #: (n_c, 12) concave corners (:func:`dexpush.corner.corner_table`), or None for a shape without any
+    corners: jnp.ndarray | None = None
 
     @staticmethod
     def of(shape: Shape | Contour) -> Contour:
@@ -82,7 +87,8 @@ class Contour(NamedTuple):
         if not isinstance(shape, Shape):
             raise TypeError(f"expected a dexpush.Shape, got {type(shape).__name__}")
         # jax's default float: float32, or float64 when jax_enable_x64 is on
-        return Contour(jnp.asarray(shape.coefficients))
+        corners = jnp.asarray(corner_table(shape.corners)) if len(shape.corners) else None
+        return Contour(jnp.asarray(shape.coefficients), corners)
 
     def lookup(self, phi: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray]:
         """(R(φ), R'(φ)) in φ's dtype."""
@@ -229,9 +235,22 @@ def _solve(contour: Contour, xs: tuple[jnp.ndarray, ...], u: jnp.ndarray, params
 
     F = (fn * Wn[0] + ft * Wt[0], fn * Wn[1] + ft * Wt[1], fn * Wn[2] + ft * Wt[2])
     Vx, Vy, Vw = _sym3_mul(M, F)                                         # V_sb = C f_c (eq. 5)
-    xdot = (cth * Vx - sth * Vy, sth * Vx + cth * Vy, Vw, ux, uy)      # line 24–25
-    return dict(xdot=xdot, mode=mode, fn=fn, ft=ft, phidot=phidot, phi=phi, in_contact=in_contact,
-                a=(a0, a1), e=(e0, e1), V=(Vx, Vy, Vw))
+    out = dict(mode=mode, fn=fn, ft=ft, phidot=phidot, phi=phi, in_contact=in_contact,
+               a=(a0, a1), e=(e0, e1))
+    if contour.corners is not None:                     # N_c = 2 at a concave corner (eq. 5–8)
+        k = corner_solve(contour.corners, px, py, vbx, vby, M, mu)
+        at = k.at
+        k_mode = jnp.where(k.jam, CORNER, jnp.where(k.slide, jnp.where(k.side > 0, SLIDE_CCW, SLIDE_CW), FREE))
+        for name, value in (("mode", k_mode), ("fn", k.fn), ("ft", k.ft), ("phidot", k.phidot)):
+            out[name] = jnp.where(at, value, out[name])
+        out["in_contact"] = in_contact | at
+        cx, cy = k.c
+        kV = _sym3_mul(M, (k.F[0], k.F[1], cx * k.F[1] - cy * k.F[0]))   # V_sb = M·J*ᵀF
+        Vx, Vy, Vw = (jnp.where(at, kv, v) for kv, v in zip(kV, (Vx, Vy, Vw)))
+        out["corner"] = k
+    out["V"] = (Vx, Vy, Vw)
+    out["xdot"] = (cth * Vx - sth * Vy, sth * Vx + cth * Vy, Vw, ux, uy)   # line 24–25
+    return out
 
 
 def solve_contact(contour: Contour, x: State, u: jnp.ndarray, params: jnp.ndarray,
@@ -306,7 +325,10 @@ def step(contour: Contour, x: State, u: jnp.ndarray, dt: float | jnp.ndarray,
     xs = components(x)
     o = _solve(contour, xs, u, params, mu, 1.0)
     moved = tuple(xi + dt * di for xi, di in zip(xs, o["xdot"]))
-    return _like(x, components(resolve_penetration(contour, moved, keep_contact=o["mode"] != FREE)))
+    fixed = components(resolve_penetration(contour, moved, keep_contact=o["mode"] != FREE))
+    if "corner" in o:
+        fixed = corner_fix(o["corner"], moved, fixed)
+    return _like(x, fixed)
 
 
 def integrate(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, duration: float | jnp.ndarray,

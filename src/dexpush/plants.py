@@ -22,9 +22,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.checks import check_params, check_positive, checked_vector
-from dexpush.geometry import Shape, is_convex
+from dexpush.geometry import Shape
 from dexpush.interfaces import Observation
 from dexpush.model import LAMBDA_TRUE, Contour, contact_gap, integrate
+from dexpush.polygons import convex_pieces
 
 __all__ = ["ModelPlant", "PhysicsPlant", "PhysicsSettings"]
 
@@ -170,8 +171,25 @@ def _inertia(points: np.ndarray, mass: float, height: float) -> tuple[np.ndarray
     return com, np.array([ixx, iyy, izz])
 
 
+#: the most convex prisms a slider may be built from (each is a MuJoCo mesh the pusher is tested against)
+MAX_PRISMS = 64
+
+
+def convex_prisms(shape: Shape) -> list[np.ndarray]:
+    """The footprint as convex pieces for MuJoCo, which collides meshes by their convex hulls.
+
+    Convex polygons are kept whole; a non-convex one is split (:func:`dexpush.polygons.convex_pieces`),
+    never replaced by its hull. A footprint needing more than :data:`MAX_PRISMS` pieces is refused.
+    """
+    pieces = [piece for poly in shape.polygons for piece in convex_pieces(poly)]
+    if len(pieces) > MAX_PRISMS:
+        raise ValueError(f"the physics plant would build {shape.name!r} from {len(pieces)} convex prisms (at most "
+                         f"{MAX_PRISMS}): its outline is too ragged to simulate faithfully; simplify the polygon(s)")
+    return pieces
+
+
 def scene_xml(shape: Shape, settings: PhysicsSettings) -> str:
-    """MJCF of table, slider and pusher, built from the shape (one convex prism per polygon).
+    """MJCF of table, slider and pusher, built from the shape (convex prisms, :func:`convex_prisms`).
 
     Contact groups (contype/conaffinity bits) keep the three kinds of contact apart: the
     table touches only the slider's support spheres (friction ``table_friction``), the
@@ -186,7 +204,7 @@ def scene_xml(shape: Shape, settings: PhysicsSettings) -> str:
     points = _support_points(shape, s.support_spacing)
     com, inertia = _inertia(points, s.mass, h)
     meshes, sides = [], []
-    for i, poly in enumerate(shape.polygons):
+    for i, poly in enumerate(convex_prisms(shape)):
         verts = " ".join(f"{x:.6f} {y:.6f} {z:.6f}" for z in (-h / 2, h / 2) for x, y in poly)
         meshes.append(f'<mesh name="piece{i}" vertex="{verts}"/>')
         sides.append(f'<geom type="mesh" mesh="piece{i}" pos="0 0 {h / 2 + s.support_radius:.6f}" contype="4" '
@@ -229,18 +247,13 @@ class PhysicsPlant:
     Same interface as :class:`ModelPlant` (one scene, not a batch).
 
     Args:
-        shape: the slider's footprint (each polygon becomes a convex prism).
+        shape: the slider's footprint (split into convex prisms, :func:`convex_prisms`).
         settings: :class:`PhysicsSettings`.
     """
 
     def __init__(self, shape: Shape, settings: PhysicsSettings | None = None) -> None:
         import mujoco
 
-        concave = [i for i, poly in enumerate(shape.polygons) if not is_convex(poly)]
-        if concave:
-            raise ValueError(f"the physics plant builds each polygon of the shape as one convex prism, and polygon(s) "
-                             f"{concave} of {shape.name!r} are not convex (MuJoCo would use their convex hull); "
-                             "give the shape as a union of convex pieces: Shape.union([piece, piece, ...])")
         self._mj = mujoco
         self.shape = shape
         self.settings = settings or PhysicsSettings()

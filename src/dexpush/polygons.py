@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["as_polygon", "distance_to_polygons", "inside_polygon", "is_convex", "kernel_centre", "kernel_point",
-           "radial_table_polygons", "table_azimuths"]
+__all__ = ["CORNER_MIN_ANGLE", "as_polygon", "concave_corners", "convex_pieces", "distance_to_polygons",
+           "inside_polygon", "is_convex", "kernel_centre", "kernel_point", "radial_exact", "radial_table_polygons",
+           "table_azimuths"]
 
 def as_polygon(vertices: object, name: str = "vertices") -> np.ndarray:
     """Corners as a counter-clockwise (n, 2) float64 array: repeated corners merged, a closing
@@ -211,6 +212,14 @@ def radial_table_polygons(polys: tuple[np.ndarray, ...], rho: float,
     for E edges (a 1000-corner polygon builds in well under a second).
     """
     phi = table_azimuths(n)
+    R, n_out = radial_exact(polys, rho, phi)
+    return R, dradius_from_normal(phi, R, n_out)
+
+
+def radial_exact(polys: tuple[np.ndarray, ...], rho: float,
+                 phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """R(φ) and the outward unit normal (n, 2) of the inflated union at any azimuths φ (n,)."""
+    n = len(phi)
     cap_starts, cap_ends, inner_starts, inner_ends = _ray_intervals(polys, rho, phi)
     starts, ends = np.concatenate([cap_starts, inner_starts], -1), np.concatenate([cap_ends, inner_ends], -1)
     order = np.argsort(starts, axis=-1)
@@ -258,7 +267,7 @@ def radial_table_polygons(polys: tuple[np.ndarray, ...], rho: float,
     p = R[:, None] * e
     _, near = _union_distance(p, polys, a, b)
     n_out = (p - near) / np.linalg.norm(p - near, axis=-1, keepdims=True)
-    return R, dradius_from_normal(phi, R, n_out)
+    return R, n_out
 
 
 def kernel_centre(poly: np.ndarray) -> np.ndarray | None:
@@ -321,3 +330,116 @@ def kernel_point(polys: tuple[np.ndarray, ...] | list[np.ndarray], rho: float, g
         "points) sees "
         "its whole pusher-inflated contour: the shape is not star-shaped about any point we tried. Split the "
         "object into star-shaped pieces, or give `reference` yourself.")
+
+
+#: smallest kink (angle between the two faces' normals) treated as a two-face corner; smaller
+#: kinks (a polygon approximating a smooth concave curve) stay single-contact
+CORNER_MIN_ANGLE = float(np.radians(3.0))
+_CORNER_BISECTIONS = 48
+
+
+def _signed_turn(n0: np.ndarray, n1: np.ndarray) -> np.ndarray:
+    """Signed angle from unit vectors n0 to n1 (..., 2), positive counter-clockwise."""
+    return np.arctan2(_cross(n0, n1), np.sum(n0 * n1, -1))
+
+
+def concave_corners(polys: tuple[np.ndarray, ...], rho: float, R: np.ndarray, dR: np.ndarray,
+                    min_angle: float = CORNER_MIN_ANGLE) -> np.ndarray:
+    """The concave corners of the ρ-inflated union, from its exact face geometry.
+
+    Going counter-clockwise round the inflated contour, its outward normal turns
+    counter-clockwise on the arcs and not at all along the flat faces; it jumps clockwise
+    only at a concave corner, where two faces (offset edges or arcs) meet and a pusher centre
+    there touches both (the T's two inner corners under the bar, an L's inner corner). The
+    table (R, R') brackets each such jump between two azimuths; the bracket is then halved
+    ``_CORNER_BISECTIONS`` times with the exact ray test (:func:`radial_exact`), keeping the
+    half where the normal turns clockwise, so corner and normals are exact to round-off,
+    not smeared by the table's interpolation.
+
+    Returns (n_c, 6) rows ``[c_x, c_y, n1_x, n1_y, n2_x, n2_y]``: the corner c and the inward
+    unit normals of the face on its clockwise side (n1) and on its counter-clockwise side (n2).
+    """
+    n = len(R)
+    phi = table_azimuths(n)
+    c, s = np.cos(phi), np.sin(phi)
+    t = np.stack([dR * c - R * s, dR * s + R * c], -1)
+    n_out = np.stack([t[:, 1], -t[:, 0]], -1) / np.linalg.norm(t, axis=-1, keepdims=True)
+    turn = _signed_turn(n_out, np.roll(n_out, -1, axis=0))
+    idx = np.flatnonzero(turn < -min_angle / 2)
+    if not len(idx):
+        return np.zeros((0, 6))
+    h = 2 * np.pi / n
+    lo, hi = phi[idx], phi[idx] + h
+    n_lo, n_hi = n_out[idx], np.roll(n_out, -1, axis=0)[idx]
+    for _ in range(_CORNER_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        _, n_mid = radial_exact(polys, rho, mid)
+        left = _signed_turn(n_lo, n_mid) < _signed_turn(n_mid, n_hi)
+        hi, n_hi = np.where(left, mid, hi), np.where(left[:, None], n_mid, n_hi)
+        lo, n_lo = np.where(left, lo, mid), np.where(left[:, None], n_lo, n_mid)
+    mid = 0.5 * (lo + hi)
+    Rc, _ = radial_exact(polys, rho, mid)
+    corner = Rc[:, None] * np.stack([np.cos(mid), np.sin(mid)], -1)
+    keep = _signed_turn(n_lo, n_hi) < -min_angle
+    return np.concatenate([corner, -n_lo, -n_hi], -1)[keep]
+
+
+def _without_collinear(v: np.ndarray) -> np.ndarray:
+    e0, e1 = v - np.roll(v, 1, axis=0), np.roll(v, -1, axis=0) - v
+    scale = float(np.max(np.ptp(v, axis=0)))
+    return v[np.abs(_cross(e0, e1)) > 1e-12 * scale**2]
+
+
+def convex_pieces(polygon: np.ndarray) -> list[np.ndarray]:
+    """A simple counter-clockwise polygon split into convex counter-clockwise pieces.
+
+    Ear-clipping triangulation, then Hertel–Mehlhorn: drop every diagonal whose two sides
+    merge into a convex piece (at most four times the fewest possible pieces; an L or a U
+    gives two or three). A convex polygon comes back whole.
+    """
+    v = _without_collinear(np.asarray(polygon, dtype=np.float64))
+    if is_convex(v):
+        return [v]
+    idx, tris = list(range(len(v))), []
+    while len(idx) > 3:
+        for k in range(len(idx)):
+            i0, i1, i2 = idx[k - 1], idx[k], idx[(k + 1) % len(idx)]
+            a, b, c = v[i0], v[i1], v[i2]
+            if _cross(b - a, c - b) <= 0:
+                continue                                  # reflex (or flat) corner: not an ear
+            others = v[[j for j in idx if j not in (i0, i1, i2)]]
+            inside = ((_cross(b - a, others - a) >= 0) & (_cross(c - b, others - b) >= 0)
+                      & (_cross(a - c, others - c) >= 0))
+            if not np.any(inside):
+                tris.append([i0, i1, i2])
+                idx.pop(k)
+                break
+        else:
+            raise ValueError("could not split the polygon into convex pieces (is it simple?)")
+    pieces = [*tris, idx]
+    merged = True
+    while merged:
+        merged = False
+        for p in range(len(pieces)):
+            for q in range(p + 1, len(pieces)):
+                joined = _join(pieces[p], pieces[q])
+                if joined is not None and is_convex(v[joined]):
+                    pieces[p] = joined
+                    del pieces[q]
+                    merged = True
+                    break
+            if merged:
+                break
+    return [v[p] for p in pieces]
+
+
+def _join(p: list[int], q: list[int]) -> list[int] | None:
+    """Two counter-clockwise index cycles sharing an edge (i→j in p, j→i in q) as one cycle."""
+    for k in range(len(p)):
+        i, j = p[k], p[(k + 1) % len(p)]
+        for m in range(len(q)):
+            if q[m] == j and q[(m + 1) % len(q)] == i:
+                # p: ... i | j ...  ;  q: ... j | i ...  → p up to i, then q after i round to j, then p from j
+                tail = [q[(m + 2 + r) % len(q)] for r in range(len(q) - 2)]
+                return [*p[:k + 1], *tail, *p[k + 1:]]
+    return None
