@@ -18,8 +18,6 @@ from typing import NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush import fastmath
-
 __all__ = ["CORNER_REACH", "CORNER_TOL", "CornerSolution", "corner_fix", "corner_solve", "corner_table",
            "nearest_corner"]
 
@@ -135,7 +133,8 @@ def corner_solve(corners: jnp.ndarray, px: jnp.ndarray, py: jnp.ndarray, vbx: jn
     det = gxx * gyy - gxy * gxy
     jx, jy = (gyy * vbx - gxy * vby) / det, (gxx * vby - gxy * vbx) / det      # F = G⁻¹v
     cos_half = (cg - mu * sg) / jnp.sqrt(1 + mu * mu)                           # cos(γ + atan μ)
-    jam = jx * bx + jy * by >= jnp.sqrt(jx * jx + jy * jy) * cos_half
+    fb = jx * bx + jy * by
+    jam = fb * jnp.abs(fb) >= (jx * jx + jy * jy) * cos_half * jnp.abs(cos_half)
 
     def slide(nx: jnp.ndarray, ny: jnp.ndarray, sig: jnp.ndarray) -> tuple[jnp.ndarray, ...]:
         dx, dy = sig * ny, -sig * nx                       # d = σ·t, t = (n_y, −n_x)
@@ -168,8 +167,8 @@ def corner_solve(corners: jnp.ndarray, px: jnp.ndarray, py: jnp.ndarray, vbx: jn
                           phidot=phidot, c=(cx, cy), snap_n=snap_n)
 
 
-def corner_fix(k: CornerSolution, moved: tuple[jnp.ndarray, ...],
-                fixed: tuple[jnp.ndarray, ...]) -> tuple[jnp.ndarray, ...]:
+def corner_fix(k: CornerSolution, moved: tuple[jnp.ndarray, ...], fixed: tuple[jnp.ndarray, ...],
+               cth: jnp.ndarray, sth: jnp.ndarray) -> tuple[jnp.ndarray, ...]:
     """After a step that began at a concave corner, place the object from the faces, not the table.
 
     Jammed: the object is translated so that its corner is back under the pusher (the rigid
@@ -177,8 +176,7 @@ def corner_fix(k: CornerSolution, moved: tuple[jnp.ndarray, ...],
     the pusher is on the face's line. Free: left where the step put it (the table's
     interpolation bulges by up to 0.4 mm at a kink, so its radial correction would be wrong).
     """
-    xb, yb, th, xc, yc = moved
-    sth, cth = fastmath.sincos(th)
+    xb, yb, _, xc, yc = moved
     cx, cy = k.c
     wcx, wcy = xb + cth * cx - sth * cy, yb + sth * cx + cth * cy          # corner in {S}
     nx, ny = k.snap_n

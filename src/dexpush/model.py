@@ -302,14 +302,20 @@ def resolve_penetration(contour: Contour, x: State, keep_contact: jnp.ndarray | 
     The correction is first order in the depth (exact for flat faces).
     """
     xs = components(x)
-    cth, sth, px, py = _to_body(xs)
+    return _like(x, _resolve(contour, xs, keep_contact, _to_body(xs)))
+
+
+def _resolve(contour: Contour, xs: tuple[jnp.ndarray, ...], keep_contact: jnp.ndarray | bool,
+             body: tuple[jnp.ndarray, ...]) -> tuple[jnp.ndarray, ...]:
+    """:func:`resolve_penetration` on components, given ``_to_body(xs)``."""
+    cth, sth, px, py = body
     _, dist, R, _, _, _, nx, ny, _, _ = _contact_frame(contour, px, py)
     radial = jnp.where(keep_contact, R - dist, jnp.maximum(R - dist, 0.0))
     # depth along the outward normal: (R − |p|)·(ê_r · n̂_out), with n̂_out = −n̂
     inv = 1.0 / jnp.where(dist > 0, dist, 1.0)
     depth = radial * -(nx * px + ny * py) * inv
     mx, my = cth * nx - sth * ny, sth * nx + cth * ny   # inward normal in {S}: the push direction
-    return _like(x, (xs[0] + depth * mx, xs[1] + depth * my, *xs[2:]))
+    return (xs[0] + depth * mx, xs[1] + depth * my, *xs[2:])
 
 
 def step(contour: Contour, x: State, u: jnp.ndarray, dt: float | jnp.ndarray,
@@ -325,9 +331,10 @@ def step(contour: Contour, x: State, u: jnp.ndarray, dt: float | jnp.ndarray,
     xs = components(x)
     o = _solve(contour, xs, u, params, mu, 1.0)
     moved = tuple(xi + dt * di for xi, di in zip(xs, o["xdot"]))
-    fixed = components(resolve_penetration(contour, moved, keep_contact=o["mode"] != FREE))
+    body = _to_body(moved)
+    fixed = _resolve(contour, moved, o["mode"] != FREE, body)
     if "corner" in o:
-        fixed = corner_fix(o["corner"], moved, fixed)
+        fixed = corner_fix(o["corner"], moved, fixed, body[0], body[1])
     return _like(x, fixed)
 
 

@@ -1,0 +1,69 @@
+"""What the two-contact corner model costs MPPI: one iteration on the T with and without it.
+
+    python benchmarks/corner_cost.py [--samples 1024] [--repeats 200]
+
+The same controller step (``plan_step``: sampling, rollouts through ``dexpush.model.step``,
+cost, update and warm-start shift) for Task I on the T, once with the T's two concave corners
+in the contour (what dexpush uses) and once with them removed (the single-contact model of
+0.3.0). Issue 14 allows at most 20 % more time per iteration. Run on an idle machine; the two
+variants are timed in alternating rounds so that drift in machine load hits both alike.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import time
+from functools import partial
+
+import jax
+import numpy as np
+
+from dexpush import Shape
+from dexpush.controller import ControllerSettings, plan_step, policy_init
+from dexpush.cost import Scene
+from dexpush.model import LAMBDA_TRUE, Contour
+from dexpush.mppi import MPPISettings
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--samples", type=int, default=1024)
+    ap.add_argument("--repeats", type=int, default=200)
+    ap.add_argument("--rounds", type=int, default=5)
+    args = ap.parse_args()
+    shape = Shape.tee()
+    settings = ControllerSettings(mppi=MPPISettings(num_samples=args.samples))
+    scene = Scene.make(shape, (0.6, 0.3, 0.0), (), settings.weights)
+    with_corners = Contour.of(shape)
+    variants = {"single contact": with_corners._replace(corners=None), "with corners": with_corners}
+    x = np.array([0.0, 0.0, 0.0, -0.05, -0.08], np.float32)      # pusher below the bar, beside the stem
+    steps = {}
+    for name, contour in variants.items():
+        fn = jax.jit(partial(plan_step, contour=contour, scene=scene, settings=settings))
+        state = policy_init(LAMBDA_TRUE, settings, 0)
+        jax.block_until_ready(fn(state, x))
+        steps[name] = (fn, state)
+    times = {name: [] for name in variants}
+    for _ in range(args.rounds):
+        for name, (fn, state) in steps.items():
+            for _ in range(args.repeats // args.rounds):
+                t0 = time.perf_counter()
+                jax.block_until_ready(fn(state, x))
+                times[name].append(time.perf_counter() - t0)
+    med = {name: float(np.median(t) * 1e3) for name, t in times.items()}
+    ratio = med["with corners"] / med["single contact"]
+    print(f"# {platform.machine()}, K = {args.samples}, N_p = {settings.mppi.horizon}, T Task I, "
+          f"median of {len(times['with corners'])} iterations each")
+    print("| model | ms per iteration |")
+    print("|---|---|")
+    for name, m in med.items():
+        print(f"| {name} | {m:.3f} |")
+    print(f"slowdown: {100 * (ratio - 1):+.1f} % (allowed: +20 %)")
+    print(json.dumps({"ms_single_contact": round(med["single contact"], 4),
+                      "ms_with_corners": round(med["with corners"], 4), "slowdown": round(ratio - 1, 4)}))
+
+
+if __name__ == "__main__":
+    main()
