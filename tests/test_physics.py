@@ -69,3 +69,27 @@ def test_bad_input_is_named(rect_plant: PhysicsPlant) -> None:
         rect_plant.step([np.nan, 0.0])
     with pytest.raises(ValueError, match="mass"):
         PhysicsSettings(mass=0.0)
+
+
+@pytest.mark.parametrize("name,corners,reference,pusher,pieces", [
+    # an L: the pusher starts in the notch, inside the L's convex hull but 1.1 cm clear of the L
+    ("L", [[0, 0], [0.1, 0], [0.1, 0.03], [0.03, 0.03], [0.03, 0.1], [0, 0.1]], (0.015, 0.015), (0.04, 0.04), 2),
+    # a U-like block with a shallow slot: the pusher starts in the slot, 1.5 cm above its floor
+    ("U", [[0, 0], [0.2, 0], [0.2, 0.06], [0.15, 0.06], [0.13, 0.04], [0.07, 0.04], [0.05, 0.06], [0, 0.06]],
+     (0.1, 0.01), (0.0, 0.055), 4),
+])
+def test_a_concave_polygon_is_simulated_as_itself_not_its_hull(name: str, corners: list, reference: tuple,
+                                                                 pusher: tuple, pieces: int) -> None:
+    """A non-convex polygon becomes convex prisms that tile it: the pusher moves freely in the notch
+    (MuJoCo would otherwise collide it with the hull) and pushes the object once it reaches the faces."""
+    from dexpush.plants import convex_prisms
+
+    shape = Shape.polygon(corners, reference=reference, name=name)
+    assert len(convex_prisms(shape)) == pieces
+    plant = PhysicsPlant(shape)
+    plant.reset((0.0, 0.0, 0.0), pusher)
+    direction = -np.asarray(pusher) / np.linalg.norm(pusher)                  # towards the reference
+    obs = plant.step(0.05 * direction, 0.1)                                    # 5 mm: still clear
+    assert np.max(np.abs(obs.object_pose)) < 1e-6
+    obs = plant.step(0.05 * direction, 0.5)                                    # 25 mm more: pushes it
+    assert float(np.asarray(obs.object_pose[:2]) @ direction) > 0.005

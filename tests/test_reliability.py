@@ -245,12 +245,10 @@ def test_results_do_not_depend_on_where_the_world_origin_is() -> None:
     np.testing.assert_allclose(a.commands, b.commands, atol=1e-6)
 
 
-def test_the_physics_plant_refuses_a_concave_piece_instead_of_using_its_hull() -> None:
-    from dexpush.plants import PhysicsPlant
+def test_the_physics_plant_refuses_an_outline_too_ragged_to_simulate() -> None:
+    from dexpush.plants import MAX_PRISMS, PhysicsPlant
 
-    ell = [[0, 0], [0.1, 0], [0.1, 0.03], [0.03, 0.03], [0.03, 0.1], [0, 0.1]]
-    with pytest.raises(ValueError, match="not convex"):
-        PhysicsPlant(dexpush.Shape.polygon(ell, reference=(0.015, 0.015)))
-    pieces = dexpush.Shape.union([[[0, 0], [0.1, 0], [0.1, 0.03], [0, 0.03]], [[0, 0], [0.03, 0], [0.03, 0.1],
-                                                                             [0, 0.1]]], reference=(0.015, 0.015))
-    PhysicsPlant(pieces).reset((0.0, 0.0, 0.0), (-0.1, 0.0))            # the same L as convex pieces works
+    t = np.linspace(0, 2 * np.pi, 2 * 80, endpoint=False)                   # a star with 80 points
+    star = np.stack([np.cos(t), np.sin(t)], -1) * np.where(np.arange(160) % 2, 0.07, 0.1)[:, None]
+    with pytest.raises(ValueError, match=f"at most {MAX_PRISMS}"):
+        PhysicsPlant(dexpush.Shape.polygon(star))

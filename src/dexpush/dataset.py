@@ -184,7 +184,7 @@ def validate(pushes: list[Push], mu: float = 0.25, separation_mm: float = 3.0, s
         entry = {
             "pushes": len(ps), "samples": len(smp.observed), "beta_fit": round(beta, 3),
             "mode_agreement": round(agree / len(smp.observed), 4),
-            "confusion_observed_by_predicted": confusion.tolist(), "modes": list(MODE_NAMES),
+            "confusion_observed_by_predicted": confusion.tolist(), "modes": list(MODE_NAMES[:4]),
             "observed_counts": {MODE_NAMES[m]: int(np.sum(smp.observed == m)) for m in range(4)},
             "one_step_error_mm": round(float(np.mean(np.hypot(r[:, 0], r[:, 1]))) * 1000, 3),
             "one_step_error_deg": round(float(np.degrees(np.mean(np.abs(r[:, 2]) / 0.05))), 3),

@@ -216,9 +216,12 @@ def radial_table_polygons(polys: tuple[np.ndarray, ...], rho: float,
     return R, dradius_from_normal(phi, R, n_out)
 
 
-def radial_exact(polys: tuple[np.ndarray, ...], rho: float,
-                 phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """R(φ) and the outward unit normal (n, 2) of the inflated union at any azimuths φ (n,)."""
+def radial_exact(polys: tuple[np.ndarray, ...], rho: float, phi: np.ndarray,
+                 check: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """R(φ) and the outward unit normal (n, 2) of the inflated union at any azimuths φ (n,).
+
+    With ``check`` a ray that leaves the shape and enters it again raises ``ValueError``;
+    without, R is the ray's outermost crossing."""
     n = len(phi)
     cap_starts, cap_ends, inner_starts, inner_ends = _ray_intervals(polys, rho, phi)
     starts, ends = np.concatenate([cap_starts, inner_starts], -1), np.concatenate([cap_ends, inner_ends], -1)
@@ -227,7 +230,7 @@ def radial_exact(polys: tuple[np.ndarray, ...], rho: float,
     reach = np.maximum.accumulate(ends, axis=-1)
     tol = 1e-9 * max(float(np.max(np.abs(np.concatenate(polys)))), rho)
     gaps = (starts[:, 1:] > reach[:, :-1] + tol) & np.isfinite(starts[:, 1:])
-    if np.any(gaps) or np.any(starts[:, 0] > tol):
+    if check and (np.any(gaps) or np.any(starts[:, 0] > tol)):
         i = int(np.argmax(np.any(gaps, axis=1) | (starts[:, 0] > tol)))
         j = int(np.argmax(gaps[i])) if np.any(gaps[i]) else -1
         leaves = f"leaves the (pusher-inflated) shape at {reach[i, j] * 1000:.1f} mm and enters it again further out" \
@@ -373,12 +376,12 @@ def concave_corners(polys: tuple[np.ndarray, ...], rho: float, R: np.ndarray, dR
     n_lo, n_hi = n_out[idx], np.roll(n_out, -1, axis=0)[idx]
     for _ in range(_CORNER_BISECTIONS):
         mid = 0.5 * (lo + hi)
-        _, n_mid = radial_exact(polys, rho, mid)
+        _, n_mid = radial_exact(polys, rho, mid, check=False)    # the table's azimuths were checked
         left = _signed_turn(n_lo, n_mid) < _signed_turn(n_mid, n_hi)
         hi, n_hi = np.where(left, mid, hi), np.where(left[:, None], n_mid, n_hi)
         lo, n_lo = np.where(left, lo, mid), np.where(left[:, None], n_lo, n_mid)
     mid = 0.5 * (lo + hi)
-    Rc, _ = radial_exact(polys, rho, mid)
+    Rc, _ = radial_exact(polys, rho, mid, check=False)
     corner = Rc[:, None] * np.stack([np.cos(mid), np.sin(mid)], -1)
     keep = _signed_turn(n_lo, n_hi) < -min_angle
     return np.concatenate([corner, -n_lo, -n_hi], -1)[keep]

@@ -19,7 +19,10 @@ from dexpush.model import MODE_NAMES
 
 __all__ = ["animate_episode", "plot_condition", "plot_episode", "plot_fit", "plot_shapes", "save_figure_atomic"]
 
-MODE_COLORS = {"stick": "#e6a800", "slide_ccw": "#2ca02c", "slide_cw": "#1f77b4", "free": "#d62728"}
+MODE_COLORS = {"stick": "#e6a800", "slide_ccw": "#2ca02c", "slide_cw": "#1f77b4", "free": "#d62728",
+               "corner": "#9467bd"}
+#: the single-contact modes, which recorded pushes on convex objects can show (the validation figures)
+SINGLE_MODES = MODE_NAMES[:4]
 
 
 def save_figure_atomic(fig: plt.Figure, path: str | os.PathLike, **kwargs: object) -> None:
@@ -254,7 +257,7 @@ def plot_mode_decisions(per_object: dict, mu: float, path: str | os.PathLike | N
         g = d["boundary"] / np.linalg.norm(d["boundary"], axis=-1, keepdims=True)
         for gi in g[:: max(1, len(g) // 60)]:
             ax.plot([-gi[0], gi[0]], [-gi[1], gi[1]], color="0.6", lw=0.5, ls="--", alpha=0.5)
-        for m, mode in enumerate(MODE_NAMES):
+        for m, mode in enumerate(SINGLE_MODES):
             sel = d["observed"] == m
             ax.scatter(a[sel, 0], a[sel, 1], s=12, color=MODE_COLORS[mode], label=f"observed {mode} ({sel.sum()})",
                        alpha=0.8, edgecolors="none")
@@ -289,8 +292,8 @@ def plot_confusion(per_object: dict, path: str | os.PathLike | None = None) -> p
             for j in range(4):
                 ax.text(j, i, str(cm[i, j]), ha="center", va="center", fontsize=9,
                         color="w" if cm[i, j] > cm.max() / 2 else "k")
-        ax.set_xticks(range(4), MODE_NAMES, rotation=30, fontsize=8)
-        ax.set_yticks(range(4), MODE_NAMES, fontsize=8)
+        ax.set_xticks(range(4), SINGLE_MODES, rotation=30, fontsize=8)
+        ax.set_yticks(range(4), SINGLE_MODES, fontsize=8)
         ax.set_xlabel("predicted by the C-GVMM")
         ax.set_ylabel("observed")
         ax.set_title(name)
