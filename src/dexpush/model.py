@@ -18,6 +18,9 @@ inflated contour's radial vector and tangent:
     w       = N·R(θ)ᵀ·u = Γ·f_c + η·φ̇,  Γ = N·J*·C,  η = N·∂φr = [0, |∂φr|]  (eq. 6–7)
     f_c     = [f⁺ + f⁻, μ(f⁺ − f⁻)]                                         (eq. 8)
 
+Where the pusher sits in a concave corner of the contour it touches two faces; there
+:mod:`dexpush.corner` solves eq. 5–8 with both contacts (mode ``CORNER`` when it jams).
+
 Modes, tested in this order (docs/conventions.md#motion-model): stick if [[1,1],[μ,−μ]]⁻¹Γ⁻¹w > 0; sliding CCW
 if [[1,g₀],[μ,g₁]]⁻¹Γ⁻¹w ≥ 0 (g = Γ⁻¹η); sliding CW if [[1,−g₀],[−μ,−g₁]]⁻¹Γ⁻¹w ≥ 0;
 otherwise, or when the pusher is outside the contour, free (separation).

@@ -1,5 +1,6 @@
-"""Polygon geometry in numpy: cleaning corners, containment and distance, and the exact ray
-test that builds a star-shaped contour's radial table (used by :class:`dexpush.geometry.Shape`).
+"""Polygon geometry in numpy: cleaning corners, containment and distance, the exact ray test
+that builds a star-shaped contour's radial table and finds its concave corners (used by
+:class:`dexpush.geometry.Shape`), and the split into convex pieces (used by the physics plant).
 
 Everything here runs once per shape, at construction, in float64; nothing is traced by JAX.
 """
