@@ -25,6 +25,7 @@ import numpy as np
 from dexpush import Shape
 from dexpush.model import Contour
 from dexpush.plants import ModelPlant, PhysicsPlant, PhysicsSettings, _support_points
+from dexpush.se2 import rotate
 
 
 def physics_lambda(shape: Shape, settings: PhysicsSettings) -> np.ndarray:
@@ -40,9 +41,7 @@ def direction_error_deg(a: np.ndarray, b: np.ndarray, beta: float) -> float:
 
 
 def body_delta(x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
-    c, s = np.cos(x0[2]), np.sin(x0[2])
-    d = x1[:2] - x0[:2]
-    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], x1[2] - x0[2]])
+    return np.r_[rotate(x1[:2] - x0[:2], -x0[2]), x1[2] - x0[2]]
 
 
 def main() -> None:
@@ -66,9 +65,8 @@ def main() -> None:
     for _ in range(args.pushes):
         corner = shape.corners[rng.integers(len(shape.corners))]
         th = rng.uniform(-np.pi, np.pi)
-        R = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
         q0 = np.array([0.0, 0.0, th])
-        p0 = R @ corner[:2]
+        p0 = rotate(corner[:2], th)
         ang = rng.uniform(-np.pi, np.pi)
         v = args.speed * np.array([np.cos(ang), np.sin(ang)])
         physics.reset(q0, p0)
@@ -77,9 +75,8 @@ def main() -> None:
         if np.linalg.norm(d_sim[:2]) < 0.05 * args.speed * args.duration:
             continue                                   # MuJoCo: the pusher left the object
         moved += 1
-        rel = np.asarray(physics.observe().pusher_xy) - x_sim[:2]
-        c, s = np.cos(x_sim[2]), np.sin(x_sim[2])
-        jammed.append(np.hypot(c * rel[0] + s * rel[1] - corner[0], -s * rel[0] + c * rel[1] - corner[1]) < 5e-4)
+        rel = rotate(np.asarray(physics.observe().pusher_xy) - x_sim[:2], -x_sim[2])
+        jammed.append(np.linalg.norm(rel - corner[:2]) < 5e-4)
         for name, plant in models.items():
             plant.reset(q0, p0)
             x_mod = np.asarray(plant.step(v, args.duration).object_pose)

@@ -15,6 +15,8 @@ from dexpush import Shape, contact_solution
 from dexpush.corner import CORNER_REACH, CORNER_TOL
 from dexpush.model import CORNER, FREE, SLIDE_CCW, SLIDE_CW, STICK, Contour, integrate
 from dexpush.polygons import concave_corners, convex_pieces
+from dexpush.se2 import rotate
+from scenes import scenes_with_pusher_at
 
 
 # ----------------------------------------------------------------- the reference, written plainly
@@ -113,8 +115,7 @@ def corner_states(rng: np.random.Generator, n: int) -> list[tuple]:
         row = shape.corners[rng.integers(len(shape.corners))]
         th = rng.uniform(-np.pi, np.pi)
         pb = rng.uniform(-1, 1, 2)
-        Rm = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
-        x = np.r_[pb, th, pb + Rm @ row[:2]]
+        x = np.r_[pb, th, pb + rotate(row[:2], th)]
         u = rng.normal(size=2) * 0.05
         lam = np.array([rng.uniform(5, 60), rng.uniform(-0.03, 0.03), rng.uniform(-0.03, 0.03)])
         out.append((shape, row, x, u, lam, rng.uniform(0.1, 1.0)))
@@ -155,8 +156,7 @@ def test_matches_float64_reference_on_1000_corner_states() -> None:
                 assert sol.twist.dtype == np.float64
                 for k, V, m in zip(sel, np.asarray(sol.twist), np.asarray(sol.mode)):
                     _, row, xs, us, ls, _ = states[idx[k]]
-                    th = xs[2]
-                    v = np.array([[np.cos(th), np.sin(th)], [-np.sin(th), np.cos(th)]]) @ us
+                    v = rotate(us, -xs[2])
                     refs = reference_solutions(ls, row[:2], row[2:4], row[4:6], v, float(mu))
                     assert refs, f"reference found no solution for state {idx[k]}"
                     scale = max(max(np.linalg.norm(r) for r in refs), np.linalg.norm(v))
@@ -188,13 +188,7 @@ def _corner_batch(seed: int, n: int = 128):
     rng = np.random.default_rng(seed)
     tee = corner_shapes()[0]
     rows = tee.corners[rng.integers(len(tee.corners), size=n)]
-    th = rng.uniform(-np.pi, np.pi, n)
-    pb = rng.uniform(-1, 1, (n, 2))
-    c, s = np.cos(th), np.sin(th)
-    pc = pb + np.stack([c * rows[:, 0] - s * rows[:, 1], s * rows[:, 0] + c * rows[:, 1]], -1)
-    x = np.concatenate([pb, th[:, None], pc], -1)
-    u = rng.normal(size=(n, 2)) * 0.05
-    lam = np.stack([rng.uniform(5, 60, n), rng.uniform(-0.03, 0.03, n), rng.uniform(-0.03, 0.03, n)], -1)
+    x, u, lam = scenes_with_pusher_at(rng, rows[:, :2], beta=(5, 60), offset=0.03)
     return tee, x, u, lam, rows
 
 
@@ -204,8 +198,7 @@ def test_jammed_push_is_rigid_and_never_pulls(seed: int) -> None:
     tee, x, u, lam, rows = _corner_batch(seed)
     sol = contact_solution(tee, x, u, lam, mu=0.3)
     mode, V = np.asarray(sol.mode), np.asarray(sol.twist, np.float64)
-    th = x[:, 2]
-    vb = np.stack([np.cos(th) * u[:, 0] + np.sin(th) * u[:, 1], -np.sin(th) * u[:, 0] + np.cos(th) * u[:, 1]], -1)
+    vb = rotate(u, -x[:, 2])
     c = rows[:, :2]
     point = V[:, :2] + V[:, 2:3] * np.stack([-c[:, 1], c[:, 0]], -1)
     jam = mode == CORNER
@@ -247,15 +240,8 @@ def test_reduces_to_single_contact_where_one_face_is_left() -> None:
         tee = Shape.tee()
         bar = Shape.rectangle(0.20, 0.05)
         rng = np.random.default_rng(3)
-        n = 400
         row = tee.corners[np.argmax(tee.corners[:, 0])]             # right corner: stem side n1, bar bottom n2
-        th = rng.uniform(-np.pi, np.pi, n)
-        pb = rng.uniform(-1, 1, (n, 2))
-        c = row[:2]
-        pc = pb + np.stack([np.cos(th) * c[0] - np.sin(th) * c[1], np.sin(th) * c[0] + np.cos(th) * c[1]], -1)
-        x = np.concatenate([pb, th[:, None], pc], -1)
-        u = rng.normal(size=(n, 2)) * 0.05
-        lam = np.stack([rng.uniform(5, 60, n), rng.uniform(-0.03, 0.03, n), rng.uniform(-0.03, 0.03, n)], -1)
+        x, u, lam = scenes_with_pusher_at(rng, np.tile(row[:2], (400, 1)), beta=(5, 60), offset=0.03)
         t_sol, b_sol = contact_solution(tee, x, u, lam), contact_solution(bar, x, u, lam)
         tm, bm = np.asarray(t_sol.mode), np.asarray(b_sol.mode)
         on_bar = (tm == SLIDE_CCW) & (bm == SLIDE_CCW)            # sliding right along the bar, away from the stem
@@ -276,10 +262,9 @@ def test_step_keeps_a_jammed_pusher_in_the_corner() -> None:
     u = np.array([-0.05, 0.05], np.float32)                                 # into both faces
     lam = np.array([25.0, 0.0, -0.04], np.float32)
     x = np.asarray(jax.jit(integrate, static_argnames="substeps")(contour, x, u, 1.0, lam, 0.3, substeps=250))
-    th = x[2]
-    rel = np.array([[np.cos(th), np.sin(th)], [-np.sin(th), np.cos(th)]]) @ (x[3:5] - x[:2])
+    rel = rotate(x[3:5] - x[:2], -x[2])
     assert np.linalg.norm(rel - row[:2]) < 1e-5
-    assert abs(th) > 0.1                                                     # and it turned
+    assert abs(x[2]) > 0.1                                                   # and it turned
     assert int(contact_solution(tee, x, u, lam).mode) == CORNER
 
 

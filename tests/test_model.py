@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 import reference as ref
 from dexpush import LAMBDA_TRUE, Shape, cgvmm, contact_solution, force_motion
 from dexpush.model import FREE, SLIDE_CCW, SLIDE_CW, STICK, Contour, step
+from scenes import scenes_with_pusher_at
 
 
 @functools.cache
@@ -32,15 +33,7 @@ def contact_states(shape: Shape, rng: np.random.Generator, n: int, depth: float 
     if len(shape.corners):
         far = np.min(np.linalg.norm(r[:, None, :] - shape.corners[None, :, :2], axis=-1), axis=1) > 3e-3
         phi, r = phi[far], r[far]
-    n = len(phi)
-    r = r * (1.0 - depth)
-    th = rng.uniform(-np.pi, np.pi, n)
-    pb = rng.uniform(-1, 1, (n, 2))
-    c, s = np.cos(th), np.sin(th)
-    pc = pb + np.stack([c * r[:, 0] - s * r[:, 1], s * r[:, 0] + c * r[:, 1]], -1)
-    x = np.concatenate([pb, th[:, None], pc], -1)
-    u = rng.normal(size=(n, 2)) * 0.05
-    lam = np.stack([rng.uniform(5, 50, n), rng.uniform(-0.02, 0.02, n), rng.uniform(-0.02, 0.02, n)], -1)
+    x, u, lam = scenes_with_pusher_at(rng, r * (1.0 - depth))
     return x, u, lam, phi
 
 
