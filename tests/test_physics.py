@@ -93,3 +93,42 @@ def test_a_concave_polygon_is_simulated_as_itself_not_its_hull(name: str, corner
     assert np.max(np.abs(obs.object_pose)) < 1e-6
     obs = plant.step(0.05 * direction, 0.5)                                    # 25 mm more: pushes it
     assert float(np.asarray(obs.object_pose[:2]) @ direction) > 0.005
+
+
+@pytest.mark.parametrize("pressure", ["ring", "corners"])
+def test_support_pressure_patterns(pressure: str) -> None:
+    """A ring keeps the support points near the outline, corners near the hull's corners; both keep the
+    centre of pressure where symmetry puts it."""
+    rect = Shape.rectangle()
+    every = _support_points(rect, 0.01)
+    pts = _support_points(rect, 0.01, pressure, 0.02)
+    assert 3 <= len(pts) < len(every)
+    to_edge = np.minimum(0.10 - np.abs(pts[:, 0]), 0.06 - np.abs(pts[:, 1]))
+    if pressure == "ring":
+        assert np.all(to_edge <= 0.02 + 1e-9)
+    else:
+        assert np.all(np.hypot(0.10 - np.abs(pts[:, 0]), 0.06 - np.abs(pts[:, 1])) <= 0.02 + 1e-9)
+    np.testing.assert_allclose(pts.mean(0), 0.0, atol=1e-9)
+
+
+def test_randomized_worlds_are_seeded_and_within_their_ranges() -> None:
+    from dexpush.registry import make_plant, world_sensor
+    from dexpush.sensing import SensorSettings
+
+    worlds = [PhysicsSettings.randomized(s) for s in range(40)]
+    assert PhysicsSettings.randomized(3) == worlds[3] and worlds[3] != worlds[4]
+    for w in worlds:
+        assert 0.15 <= w.table_friction <= 0.5 and 0.15 <= w.pusher_friction <= 0.5
+        assert 0.2 <= w.mass <= 2.0 and 0.8 <= w.pusher_radius_scale <= 1.2
+    assert {w.pressure for w in worlds} == {"uniform", "ring", "corners"}
+    cam = world_sensor("physics-random", SensorSettings.realistic(), 5)
+    assert cam == SensorSettings.randomized(5) and 0.5e-3 <= cam.pos_std_m <= 2e-3 and cam.rate_hz in (10, 15, 30)
+    assert world_sensor("physics", None, 5) is None
+    plant = make_plant("physics-random", Shape.tee(), 5)
+    assert plant.settings == PhysicsSettings.randomized(5)
+    obs = plant.reset([0.0, 0.0, 0.0], [-0.2, 0.0])
+    for _ in range(5):
+        obs = plant.step([0.1, 0.0], 0.04)
+    assert np.all(np.isfinite(obs.object_pose))
+    with pytest.raises(ValueError, match="pressure"):
+        PhysicsSettings(pressure="random")

@@ -82,3 +82,23 @@ def test_task_three_run_never_touches_the_obstacle() -> None:
     ep = run_episode("III", "rect", seed=0, max_steps=150)
     assert ep.record.collisions == 0
     assert ep.states[-1, 0] - ep.states[0, 0] > 0.1   # it did advance towards the obstacle's side
+
+
+def test_the_cost_keeps_a_margin_that_the_reported_collision_does_not() -> None:
+    """The planner's collision test uses discs grown by obstacle_margin_m; a trial fails only on a real touch."""
+    from dexpush.cost import CostWeights, running_cost
+
+    shape, w = Shape.rectangle(), CostWeights()
+    scene = Scene.make(shape, (0.6, 0, 0), ((0.30, 0.0, 0.05),), w)
+    gap = 0.5 * w.obstacle_margin_m                                   # clear of the disc, inside the margin
+    near_box = jnp.asarray([0.30 - 0.10 - 0.05 - gap, 0.0, 0.0, -0.3, 0.0])
+    near_pusher = jnp.asarray([0.0, 0.0, 0.0, 0.30, 0.05 + shape.pusher_radius + gap])
+    clear = jnp.asarray([0.30 - 0.10 - 0.05 - 2 * w.obstacle_margin_m, 0.0, 0.0, -0.3, 0.0])
+    for x in (near_box, near_pusher):
+        assert not bool(collides(x, scene)) and bool(collides(x, scene, w.obstacle_margin_m))
+        assert float(running_cost(x, scene, w)) >= 0.99 * w.C_pen
+    assert float(running_cost(clear, scene, w)) < 1e6
+    no_margin = CostWeights(obstacle_margin_m=0.0)
+    assert float(running_cost(near_box, scene, no_margin)) < 1e6
+    with pytest.raises(ValueError, match="obstacle_margin_m"):
+        CostWeights(obstacle_margin_m=-0.01)

@@ -3,16 +3,21 @@
 from __future__ import annotations
 
 import functools
+from dataclasses import replace
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import settings as hypothesis_settings
+from hypothesis import strategies as st
 
 from dexpush import Shape
-from dexpush.estimator import UKFSettings, estimator_init, estimator_observe
+from dexpush.estimator import UKFSettings, estimator_init, estimator_observe, rate_limited
 from dexpush.model import Contour
 from dexpush.plants import ModelPlant
+from dexpush.ukf import SigmaPoints, UKFState, ukf_update
 
 TRUE = np.array([25.0, -0.01, 0.02])
 
@@ -22,11 +27,14 @@ def _observe(state, observation, valid, contour, settings):
     return estimator_observe(state, observation, valid, contour, settings, jnp.float32(0.3), jnp.float32(0.04), 10)
 
 
+MU_OFF = UKFSettings(estimate_mu=False)
+
+
 class Estimator:
     """The pure estimator (estimator_init / estimator_observe) driven observation by observation."""
 
     def __init__(self, shape: Shape, settings: UKFSettings | None = None) -> None:
-        self.settings = settings or UKFSettings()
+        self.settings = settings or MU_OFF
         self.contour = Contour.of(shape)
         self.state = estimator_init(jnp.asarray([15.0, 0.0, 0.0]), self.settings)
         self.updates = self.skipped = 0
@@ -46,11 +54,13 @@ class Estimator:
             self.skipped += not bool(informative)
 
 
-def pushes(shape: Shape, steps: int, seed: int, noise: tuple[float, float] = (0.0, 0.0), face: int = 0):
+def pushes(shape: Shape, steps: int, seed: int, noise: tuple[float, float] = (0.0, 0.0), face: int = 0,
+           pusher_noise: bool = True, mu: float = 0.3):
     """Observations of a plant pushed on one face (0: left, along +x; 1: bottom, along +y) by a
-    pusher sweeping its aim along the face: stick and slide, varied moment arms."""
+    pusher sweeping its aim along the face: stick and slide, varied moment arms. ``noise`` (m, rad)
+    on the object pose, and the position one on the pusher too unless ``pusher_noise`` is False."""
     rng = np.random.default_rng(seed)
-    plant = ModelPlant(shape, params=TRUE)
+    plant = ModelPlant(shape, params=TRUE, mu=mu)
     start = [-0.115, 0.0] if face == 0 else [0.0, -0.075]
     obs = plant.reset([0.0, 0.0, 0.0], start)
     along, normal = (np.array([0.0, 1.0]), np.array([1.0, 0.0])) if face == 0 else \
@@ -65,7 +75,7 @@ def pushes(shape: Shape, steps: int, seed: int, noise: tuple[float, float] = (0.
         v = 0.05 * d / np.linalg.norm(d) + 0.02 * (rot @ along) * np.cos(k / 15.0) + 0.01 * (rot @ normal)
         obs = plant.step(np.clip(v, -0.07, 0.07), 0.04)
         pose = obs.object_pose + rng.normal(0, 1, 3) * [noise[0], noise[0], noise[1]]
-        out.append((pose, obs.pusher_xy + rng.normal(0, noise[0], 2)))
+        out.append((pose, obs.pusher_xy + rng.normal(0, noise[0], 2) * pusher_noise))
     return out
 
 
@@ -84,7 +94,7 @@ def test_ukf_recovers_lambda_from_model_windows() -> None:
 
 def test_ukf_stays_bounded_and_positive_definite_under_noise_and_no_contact() -> None:
     shape = Shape.tee()
-    s = UKFSettings()
+    s = MU_OFF
     est = Estimator(shape, s)
     for pose, pusher in pushes(shape, 120, seed=1, noise=(0.002, np.radians(1.0))):
         est.observe(pose, pusher)
@@ -92,13 +102,17 @@ def test_ukf_stays_bounded_and_positive_definite_under_noise_and_no_contact() ->
         assert np.allclose(P, P.T, atol=1e-9)
         assert np.all(np.linalg.eigvalsh(P) > 0)
         assert np.all(est.params >= np.asarray(s.lower) - 1e-6) and np.all(est.params <= np.asarray(s.upper) + 1e-6)
-    # contact-free windows: no update, λ unchanged, covariance grows but stays bounded
+    # contact-free windows: no update, λ relaxes toward the prior with time constant prior_time_s,
+    # covariance grows but stays bounded
     est.observe(None)  # start the contact-free stretch with a fresh window
     before = est.params.copy()
+    prior = np.asarray(est.state.prior, np.float64)
+    assert np.all(np.abs(before - prior) > [1.0, 1e-3, 1e-3])   # it had learnt something
     skipped = est.skipped
     for k in range(30):
         est.observe([1.0, 1.0, 0.0], [1.5 + 0.001 * k, 1.5])
-    np.testing.assert_allclose(est.params, before, rtol=1e-6)
+    np.testing.assert_allclose(est.params, prior + (before - prior) * np.exp(-30 * 0.04 / s.prior_time_s),
+                               rtol=1e-4)
     assert est.skipped == skipped + 30 - s.window
     assert np.all(np.sqrt(np.diag(np.asarray(est.state.filter.cov))) <= np.asarray(s.init_std) * 1.0001)
 
@@ -118,7 +132,116 @@ def test_ukf_skips_nan_and_restarts_after_a_dropped_frame() -> None:
 
 
 @pytest.mark.parametrize("bad, match", [(dict(window=0), "window"), (dict(meas_pos_std=0.0), "meas_pos_std"),
-                                        (dict(lower=(0.0, -0.05, -0.05)), "bounds")])
+                                        (dict(lower=(0.0, -0.05, -0.05)), "bounds"), (dict(nis_gate=0.0), "nis_gate"),
+                                        (dict(prior_time_s=-1.0), "prior_time_s"),
+                                        (dict(rate_limit=(0.3, 0.0, 0.01)), "rate_limit")])
 def test_bad_settings(bad: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         UKFSettings(**bad)
+
+
+def test_no_prior_pull_keeps_lambda_without_information() -> None:
+    s = replace(MU_OFF, prior_time_s=None)
+    est = Estimator(Shape.rectangle(), s)
+    for pose, pusher in pushes(Shape.rectangle(), 60, seed=2):
+        est.observe(pose, pusher)
+    est.observe(None)
+    before = est.params.copy()
+    for k in range(30):
+        est.observe([1.0, 1.0, 0.0], [1.5 + 0.001 * k, 1.5])
+    np.testing.assert_allclose(est.params, before, rtol=1e-6)
+
+
+def test_innovations_are_consistent_on_model_windows_with_camera_noise() -> None:
+    """NIS/m ~ χ²_m/m on windows of the model itself under 1 mm / 0.5° object-pose noise (the realistic
+    camera's; the pusher is the robot's own, exact), so R is the noise it claims:
+    the first observed state's noise, which the replay carries into every pose, is in R."""
+    shape = Shape.rectangle()
+    est = Estimator(shape)
+    est.state = estimator_init(jnp.asarray(TRUE, jnp.float32), est.settings)
+    nis = []
+    for face in (0, 1):
+        for pose, pusher in pushes(shape, 150, seed=10 + face, noise=(1e-3, np.radians(0.5)), face=face,
+                                 pusher_noise=False):
+            n = int(est.state.updates)
+            est.observe(pose, pusher)
+            if int(est.state.updates) > n:
+                nis.append(float(est.state.nis))
+        est.observe(None)
+    assert len(nis) > 200
+    assert 0.7 < np.median(nis) < 1.4, np.median(nis)
+    assert np.mean(np.asarray(nis) > est.settings.nis_gate) < 0.1
+
+
+def test_the_gate_caps_an_innovation_the_model_cannot_explain() -> None:
+    """Linear h, where the UKF is the Kalman filter: NIS is νᵀS⁻¹ν with S = HPHᵀ + R; below the gate the
+    update is the plain one, above it the step is scaled by w = √(m·g/NIS) and the covariance shrinks by w."""
+    H = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, -2.0]])
+    P, R = np.diag([0.04, 0.01]), 0.01 * np.eye(4)
+    state = UKFState(jnp.zeros(2), jnp.asarray(P, jnp.float32))
+    S = H @ P @ H.T + R
+    K = P @ H.T @ np.linalg.inv(S)
+
+    def update(z, gate):
+        return ukf_update(state, jnp.asarray(z, jnp.float32), lambda X: X @ jnp.asarray(H.T, jnp.float32),
+                          jnp.zeros((2, 2)), jnp.asarray(R, jnp.float32), points=SigmaPoints(), lower=-jnp.ones(2) * 9,
+                          upper=jnp.ones(2) * 9, cov_cap=jnp.eye(2), min_var=1e-12, gate=gate)
+
+    for z, gated in (([0.1, -0.05, 0.1, 0.2], False), ([2.0, -1.0, 3.0, 0.5], True)):
+        nis = float(np.asarray(z) @ np.linalg.solve(S, z))
+        w = min(1.0, np.sqrt(4 * 2.0 / nis))
+        assert (w < 1) == gated
+        out = update(z, 2.0)
+        assert float(out.nis) == pytest.approx(nis, rel=1e-4)
+        assert float(out.weight) == pytest.approx(w, rel=1e-4)
+        np.testing.assert_allclose(np.asarray(out.state.mean), w * (K @ z), rtol=1e-4, atol=1e-6)
+        np.testing.assert_allclose(np.asarray(out.state.cov), P - w * K @ S @ K.T, rtol=1e-4, atol=1e-7)
+        plain = update(z, None)
+        np.testing.assert_allclose(np.asarray(plain.state.mean), K @ z, rtol=1e-4, atol=1e-6)
+        assert float(plain.weight) == 1.0
+
+
+@hypothesis_settings(max_examples=50, deadline=None)
+@given(prev=st.tuples(st.floats(2, 200), st.floats(-0.05, 0.05), st.floats(-0.05, 0.05)),
+       target=st.tuples(st.floats(2, 200), st.floats(-0.05, 0.05), st.floats(-0.05, 0.05)),
+       dt=st.floats(0.01, 1.0))
+def test_rate_limit_bounds_each_step_and_reaches_a_near_target(prev, target, dt) -> None:
+    s = MU_OFF
+    p, t = np.asarray(prev, np.float32), np.asarray(target, np.float32)
+    out = np.asarray(rate_limited(jnp.asarray(p), jnp.asarray(t), jnp.float32(dt), s), np.float64)
+    rate = np.asarray(s.rate_limit) * dt
+    assert abs(np.log(out[0]) - np.log(p[0])) <= rate[0] * (1 + 1e-4) + 1e-5
+    assert np.all(np.abs(out[1:] - p[1:]) <= rate[1:] * (1 + 1e-4) + 1e-7)
+    # never overshoots: each component lies between the previous value and the target
+    lo, hi = np.minimum(p, t), np.maximum(p, t)
+    tol = 1e-5 * np.abs(np.concatenate([[p[0]], [0.0, 0.0]])) + 1e-5 * np.abs(lo) + 1e-7
+    assert np.all(out >= lo - tol) and np.all(out <= hi + tol)
+    if abs(np.log(t[0] / p[0])) < rate[0] and np.all(np.abs(t[1:] - p[1:]) < rate[1:]):
+        np.testing.assert_allclose(out, t, rtol=1e-4, atol=1e-7)
+
+
+def test_cof_bounds_follow_the_footprint() -> None:
+    tee = Shape.tee()
+    state = estimator_init(jnp.asarray([15.0, 0.0, -0.1]), MU_OFF, tee.footprint_box)
+    np.testing.assert_allclose(np.asarray(state.lower), [2.0, -0.1, -0.175], atol=1e-6)
+    np.testing.assert_allclose(np.asarray(state.upper), [200.0, 0.1, 0.025], atol=1e-6)
+    assert float(state.filter.mean[2]) == pytest.approx(-0.1)     # the T's centroid region is reachable
+    fixed = estimator_init(jnp.asarray([15.0, 0.0, -0.1]), replace(MU_OFF, bounds_from_footprint=False),
+                           tee.footprint_box)
+    assert float(fixed.filter.mean[2]) == pytest.approx(-0.05)
+    with pytest.raises(ValueError, match="box"):
+        estimator_init(jnp.zeros(3) + 15, UKFSettings(), (0.1, 0.0, -0.1, 0.2))
+
+
+def test_mu_c_is_estimated_with_lambda() -> None:
+    """With ``estimate_mu`` the filter's 4th state is μ_c: from a prior of 0.3 it finds the plant's 0.15."""
+    shape = Shape.rectangle()
+    est = Estimator(shape, UKFSettings(estimate_mu=True))
+    assert est.state.filter.mean.shape == (4,) and float(est.state.filter.mean[3]) == pytest.approx(0.3)
+    for face in (0, 1, 0, 1):
+        for pose, pusher in pushes(shape, 120, seed=20 + face, face=face, mu=0.15):
+            est.observe(pose, pusher)
+        est.observe(None)
+    beta, xbf, ybf, mu = est.params
+    assert mu == pytest.approx(0.15, abs=0.03), est.params
+    assert beta == pytest.approx(TRUE[0], rel=0.1) and abs(xbf - TRUE[1]) < 0.003 and abs(ybf - TRUE[2]) < 0.003

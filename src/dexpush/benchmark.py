@@ -33,7 +33,7 @@ from dexpush.cost import Scene
 from dexpush.files import atomic_path, write_json_atomic
 from dexpush.geometry import Shape
 from dexpush.records import CONDITION_KEYS, condition_name, make_episode
-from dexpush.registry import ALL_METHODS, PARAMS, PLANTS, SHAPES, check_condition, make_shape
+from dexpush.registry import ALL_METHODS, PARAMS, PLANTS, SHAPES, check_condition, make_shape, world_sensor
 from dexpush.runner import batched, run_trial, trial_spec
 from dexpush.sensing import SensorSettings
 from dexpush.simulate import TrialResult, TrialSpec, simulate
@@ -190,7 +190,8 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
         p, m = owner[id(result.spec)]
         name = names[(p, m)]
         ep = make_episode(task, shape_name, shape, p, m, result, lanes if batched(plant, m, sensor) else 1, scene,
-                          plant=plant, sensor=sensor, control_period=settings.mppi.control_period)
+                          plant=plant, sensor=world_sensor(plant, sensor, result.spec.seed),
+                          control_period=settings.mppi.control_period)
         records[name][result.spec.seed] = ep.summary()
         if figures:   # the trajectory first: a trial whose record exists never lacks its trajectory
             _store_trajectory(out, name, result.spec.seed, result.states.astype(np.float32))

@@ -264,6 +264,10 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
         if bad:
             raise ValueError(f"unknown {name} {bad[0]!r}; choose from {', '.join(allowed)}")
     seeds = args.seeds if args.seeds is not None else list(range(args.trials))
+    if args.randomize:
+        if args.plant not in ("physics", "physics-random"):
+            raise ValueError("--randomize randomises the physics plant's world: use it with --plant physics")
+        args.plant = "physics-random"
     t0 = time.perf_counter()
     records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
                             lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures,
@@ -374,7 +378,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="the controller's first λ_pred = [β (1/m), x_bf (m), y_bf (m)], e.g. from `dexpush fit`; "
                           "overrides --params")
     how.add_argument("--plant", default=None, choices=PLANTS,
-                     help="the world: model (C-GVMM) or physics (MuJoCo) (default model)")
+                     help="the world: model (C-GVMM), physics (MuJoCo) or physics-random (MuJoCo world --seed "
+                          "of the randomised family, with its own camera) (default model)")
     how.add_argument("--true-params", type=_floats(3, "--true-params"), default=None, metavar="BETA,XBF,YBF",
                      help="the model plant's true λ (default 25,-0.01,0.02)")
     how.add_argument("--mu", type=float, default=None, help="the model plant's true μ_c (default 0.3)")
@@ -401,7 +406,12 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--workers", type=_positive_int, default=1,
                        help="processes, one (task, shape) group each (default 1; use the core count)")
     bench.add_argument("--plant", default="model", choices=PLANTS,
-                       help="model: batched C-GVMM world; physics: MuJoCo, trials one by one (default model)")
+                       help="model: batched C-GVMM world; physics: MuJoCo, trials one by one; physics-random: "
+                            "the same as --plant physics --randomize (default model)")
+    bench.add_argument("--randomize", action="store_true",
+                       help="with --plant physics: trial s runs in random world s (table and pusher friction, "
+                            "support pressure, mass, pusher radius) seen through random camera s; the camera "
+                            "options are then unused")
     sensor_args(bench)
     bench.add_argument("--max-steps", type=_positive_int, default=MAX_STEPS,
                        help=f"control steps before a trial fails (default {MAX_STEPS})")

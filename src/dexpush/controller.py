@@ -30,7 +30,7 @@ import numpy as np
 
 from dexpush.checks import check_params, check_positive, checked_seed, checked_vector
 from dexpush.cost import CostWeights, Scene, obstacle_array, running_cost, terminal_cost
-from dexpush.estimator import EstimatorState, UKFSettings, estimator_init, estimator_observe
+from dexpush.estimator import EstimatorState, UKFSettings, estimator_init, estimator_observe, rate_limited
 from dexpush.geometry import Shape
 from dexpush.interfaces import Observation
 from dexpush.model import LAMBDA_TRUE, Contour, integrate, step
@@ -69,20 +69,25 @@ class ControllerState(NamedTuple):
     key: jax.Array               #: PRNG key of the MPPI sampling
     params: jnp.ndarray          #: (3,) λ_pred the next iteration plans with
     estimator: EstimatorState    #: the UKF's λ estimate and observation window
+    mu: jnp.ndarray              #: μ_c the model assumes (the estimate, with ``UKFSettings.estimate_mu``)
 
 
-def policy_init(params: object, settings: ControllerSettings, seed: int | jnp.ndarray) -> ControllerState:
-    """Fresh state: zero nominal sequence, PRNG key from ``seed``, λ_pred = ``params``."""
+def policy_init(params: object, settings: ControllerSettings, seed: int | jnp.ndarray,
+                box: object = None) -> ControllerState:
+    """Fresh state: zero nominal sequence, PRNG key from ``seed``, λ_pred = ``params``; ``box``, the
+    footprint's bounding box (``Shape.footprint_box``), bounds the estimator's CoF
+    (:func:`dexpush.estimator.estimator_init`)."""
     lam = jnp.asarray(params, jnp.float32)
     return ControllerState(jnp.zeros((settings.mppi.horizon, 2), jnp.float32), jax.random.PRNGKey(seed), lam,
-                           estimator_init(lam, settings.ukf))
+                           estimator_init(lam, settings.ukf, box, settings.mu), jnp.float32(settings.mu))
 
 
 def estimate_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray | bool, *,
                   contour: Contour, settings: ControllerSettings,
                   frame_period: jnp.ndarray | float | None = None) -> ControllerState:
-    """With ``estimate``: the observation enters the UKF window and an informative full
-    window updates λ_pred (:func:`dexpush.estimator.estimator_observe`). Pure and jit-able.
+    """With ``estimate``: the observation enters the UKF window, an informative full window
+    updates the filter (:func:`dexpush.estimator.estimator_observe`), and λ_pred follows the
+    filter's mean within the rate limit (:func:`dexpush.estimator.rate_limited`). Pure and jit-able.
 
     ``frame_period`` is the time between observations (s; default: the control period).
     It may be a traced value: a camera whose period jitters costs no recompilation.
@@ -90,14 +95,17 @@ def estimate_step(state: ControllerState, observation: jnp.ndarray, estimate: jn
     obs = jnp.asarray(observation, jnp.float32)
     dt = jnp.asarray(settings.mppi.control_period if frame_period is None else frame_period, jnp.float32)
 
-    def observe(s: ControllerState) -> tuple[EstimatorState, jnp.ndarray]:
-        est, _ = estimator_observe(s.estimator, obs, jnp.bool_(True), contour, settings.ukf,
-                                   jnp.float32(settings.mu), dt, settings.ukf_substeps)
-        return est, est.filter.mean
+    def observe(s: ControllerState) -> tuple[EstimatorState, jnp.ndarray, jnp.ndarray]:
+        est, _ = estimator_observe(s.estimator, obs, jnp.bool_(True), contour, settings.ukf, s.mu, dt,
+                                   settings.ukf_substeps)
+        if settings.ukf.estimate_mu:
+            new = rate_limited(jnp.append(s.params, s.mu), est.filter.mean, dt, settings.ukf)
+            return est, new[:3], new[3]
+        return est, rate_limited(s.params, est.filter.mean, dt, settings.ukf), s.mu
 
     # (under vmap with a per-trial flag this becomes a select: both branches run)
-    est, lam = jax.lax.cond(jnp.asarray(estimate), observe, lambda s: (s.estimator, s.params), state)
-    return state._replace(estimator=est, params=lam)
+    est, lam, mu = jax.lax.cond(jnp.asarray(estimate), observe, lambda s: (s.estimator, s.params, s.mu), state)
+    return state._replace(estimator=est, params=lam, mu=mu)
 
 
 def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene: Scene,
@@ -111,7 +119,7 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
     mp = settings.mppi
     x = jnp.asarray(x, jnp.float32)
     key, sub = jax.random.split(state.key)
-    weights, mu = settings.weights, jnp.float32(settings.mu)
+    weights, mu = settings.weights, state.mu
     result = mppi_iteration(
         sub, state.sequence, tuple(x[i] for i in range(5)), state.params, scene,   # rollouts carry a tuple
         dynamics=lambda xs, u, dt, p: step(contour, xs, u, dt, p, mu),
@@ -212,6 +220,16 @@ class PushingController:
         return int(self.state.estimator.rejected)
 
     @property
+    def estimator_updates(self) -> int:
+        """Informative windows that updated the λ estimate since :meth:`reset`."""
+        return int(self.state.estimator.updates)
+
+    @property
+    def gated_windows(self) -> int:
+        """Of those, windows the innovation gate down-weighted (NIS/m above ``UKFSettings.nis_gate``)."""
+        return int(self.state.estimator.gated)
+
+    @property
     def estimator_resets(self) -> int:
         """Times the estimator's state turned non-finite and was reset to the prior since :meth:`reset`."""
         return int(self.state.estimator.resets)
@@ -226,6 +244,11 @@ class PushingController:
     def params(self) -> np.ndarray:
         """The λ_pred the model currently uses."""
         return np.asarray(self.state.params, dtype=np.float64)
+
+    @property
+    def mu(self) -> float:
+        """The μ_c the model currently uses (``settings.mu``, or its estimate with ``UKFSettings.estimate_mu``)."""
+        return float(self.state.mu)
 
     def set_params(self, params: object) -> None:
         """Replace λ_pred (e.g. with an online estimate); takes effect at the next command."""
@@ -248,7 +271,7 @@ class PushingController:
             self._seed = checked_seed(seed)
         if q is not None and p is not None:
             self._warm_up(self._local(q, p))
-        self.state = policy_init(self._initial_params, self.settings, self._seed)
+        self.state = policy_init(self._initial_params, self.settings, self._seed, self.shape.footprint_box)
         self.last: MPPIResult | None = None
         self._clock = 0.0                                  # start of the next control period (s)
         self._history: list[tuple[float, np.ndarray]] = []  # (issue time, command)
@@ -257,7 +280,7 @@ class PushingController:
 
     def _warm_up(self, obs: jnp.ndarray) -> None:
         """Run (and so compile) estimate, plan and predict once on ``obs``; results are discarded."""
-        state = policy_init(self._initial_params, self.settings, self._seed)
+        state = policy_init(self._initial_params, self.settings, self._seed, self.shape.footprint_box)
         state = _estimate_jit(state, obs, jnp.asarray(self.settings.estimate_params), self.contour, self.settings,
                               jnp.float32(self.settings.mppi.control_period))
         state, u, _ = _plan_jit(state, obs, self.contour, self.scene, self.settings)
@@ -306,7 +329,7 @@ class PushingController:
             x, segments = self._predicted, ([(0.0, T, self._history[-1][1])] if self._history else [])
         else:
             raise ValueError("the first call of act() needs a frame (the reset observation)")
-        lam, mu = self.state.params, jnp.float32(self.settings.mu)
+        lam, mu = self.state.params, self.state.mu
         for t0, t1, u in segments:
             if t1 - t0 > 1e-9:
                 x = _predict_jit(self.contour, x, jnp.asarray(u, jnp.float32), jnp.float32(t1 - t0), lam, mu, 10)

@@ -3,11 +3,14 @@
     StateCost = φ(x_T) + Σ_t [ l(x_t) + P(x_t) ]                                  (9a)
     φ(x)  = q_f · d²(q_sb, q_g)                                                     (9b)
     l(x)  = q_r1 · d²(q_sb, q_g) + q_r2 · ReLU(‖p_sc − p_sb‖ − r_s)                (9c, 9d)
-    P(x)  = C_pen if isCollision(x) else 0                                          (9e)
+    P(x)  = C_pen if isCollision(x, margin) else 0                                  (9e)
     d²(q₁, q₂) = ‖Δp‖² + c · (1 − cos Δθ)        ("decoupled distance")
 
 Obstacles are discs ``(c_x, c_y, radius)``. ``isCollision`` covers both the object's
-footprint (not inflated) and the pusher disc (docs/conventions.md#controller).
+footprint (not inflated) and the pusher disc (docs/conventions.md#controller). In the
+cost the discs are grown by ``CostWeights.obstacle_margin_m`` (default 1 cm), a safety
+margin for prediction error on a plant that is not the model; the reported collisions
+(and a failed Task III trial) use the discs as given.
 """
 
 from __future__ import annotations
@@ -39,12 +42,17 @@ class CostWeights:
     #: raise r_s to R_max + r_s_clearance (m) for objects whose inflated contour reaches
     #: beyond r_s − r_s_clearance; None keeps r_s as given. See :meth:`Scene.make`.
     r_s_clearance: float | None = 0.05
+    #: the planner keeps object and pusher this far (m) from obstacles: the collision test of the
+    #: cost (9e) uses discs grown by it, so a prediction error of up to this much at the obstacle does
+    #: not become a touch. A trial still fails only on a real touch (radius as given).
+    obstacle_margin_m: float = 0.01
 
     def __post_init__(self) -> None:
         for name in ("q_f", "q_r1", "q_r2", "c"):
             check_nonnegative(name, getattr(self, name))
         for name in ("r_s", "C_pen"):
             check_positive(name, getattr(self, name))
+        check_nonnegative("obstacle_margin_m", self.obstacle_margin_m, "m")
         if self.r_s_clearance is not None:
             check_nonnegative("r_s_clearance", self.r_s_clearance, "m, or None")
 
@@ -114,8 +122,9 @@ def decoupled_distance_sq(q: jnp.ndarray, goal: jnp.ndarray, c: float) -> jnp.nd
     return _distance_sq(q[..., 0], q[..., 1], q[..., 2], goal, c)
 
 
-def collides(x: State, scene: Scene) -> jnp.ndarray:
-    """isCollision (9e): object footprint or pusher disc overlaps an obstacle disc; (...,) bool.
+def collides(x: State, scene: Scene, margin: float = 0.0) -> jnp.ndarray:
+    """isCollision (9e): object footprint or pusher disc overlaps an obstacle disc grown by
+    ``margin`` (m); (...,) bool.
 
     The footprint test is exact for an obstacle that crosses the outline (squared distance
     from the disc centre to the footprint edges); a disc wholly inside the footprint is
@@ -133,7 +142,7 @@ def collides(x: State, scene: Scene) -> jnp.ndarray:
     a, b = scene.edge_a, scene.edge_b
     # obstacles and edges are few and static: unrolled, so XLA fuses it all (no reductions)
     for m in range(scene.obstacles.shape[0]):
-        ox, oy, r = scene.obstacles[m, 0], scene.obstacles[m, 1], scene.obstacles[m, 2]
+        ox, oy, r = scene.obstacles[m, 0], scene.obstacles[m, 1], scene.obstacles[m, 2] + margin
         dx, dy = ox - xb, oy - yb
         px, py = c * dx + s * dy, -s * dx + c * dy                   # centre in {B}
         d2 = jnp.full(jnp.shape(xb), jnp.inf, dtype=px.dtype)
@@ -158,7 +167,7 @@ def running_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
     d2 = _distance_sq(xb, yb, th, scene.goal, w.c)
     gap = jnp.sqrt((xc - xb) ** 2 + (yc - yb) ** 2)
     cost = w.q_r1 * d2 + w.q_r2 * jnp.maximum(gap - scene.r_s, 0.0)
-    return cost + jnp.where(collides(x, scene), w.C_pen, 0.0)
+    return cost + jnp.where(collides(x, scene, w.obstacle_margin_m), w.C_pen, 0.0)
 
 
 def terminal_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:

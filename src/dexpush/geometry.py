@@ -256,6 +256,12 @@ class Shape:
         return a, b
 
     @property
+    def footprint_box(self) -> np.ndarray:
+        """(x_lo, y_lo, x_hi, y_hi), the footprint's bounding box in {B}."""
+        pts = np.concatenate(self.polygons)
+        return np.concatenate([pts.min(0), pts.max(0)])
+
+    @property
     def bounding_radius(self) -> float:
         """Largest distance from the reference to the inflated contour."""
         return float(self.radius_table.max())

@@ -25,7 +25,7 @@ from dexpush.checks import check_params, check_positive, checked_vector
 from dexpush.geometry import Shape
 from dexpush.interfaces import Observation
 from dexpush.model import LAMBDA_TRUE, Contour, contact_gap, integrate
-from dexpush.polygons import convex_pieces
+from dexpush.polygons import convex_hull, convex_pieces, distance_to_polygons
 
 __all__ = ["ModelPlant", "PhysicsPlant", "PhysicsSettings"]
 
@@ -122,6 +122,10 @@ class ModelPlant:
 
 
 # ---------------------------------------------------------------------------- physics plant
+#: support-pressure patterns of the physics slider (:class:`PhysicsSettings`)
+PRESSURES = ("uniform", "ring", "corners")
+
+
 @dataclass(frozen=True)
 class PhysicsSettings:
     """The MuJoCo scene of :class:`PhysicsPlant` (docs/conventions.md#plants), with the reason for each value."""
@@ -136,15 +140,38 @@ class PhysicsSettings:
     support_radius: float = 0.002     #: radius of each support sphere (m)
     solref: tuple[float, float] = (0.004, 1.0)   #: contact time constant 2·timestep, critically damped
     impratio: float = 10.0            #: stiffer frictional constraints: less creep at rest
+    #: where the weight rests (:data:`PRESSURES`): ``uniform`` (the support grid under the whole
+    #: footprint), ``ring`` (only within ``pressure_band`` of the outline) or ``corners`` (only
+    #: within ``pressure_band`` of the footprint's convex-hull vertices)
+    pressure: str = "uniform"
+    pressure_band: float = 0.02       #: width (m) of the ring, radius (m) of each corner patch
+    pusher_radius_scale: float = 1.0  #: the world's pusher radius over the shape's (the controller assumes 1)
 
     def __post_init__(self) -> None:
         for name in ("mass", "height", "table_friction", "pusher_friction", "timestep", "support_spacing",
-                     "support_radius", "impratio"):
+                     "support_radius", "impratio", "pressure_band", "pusher_radius_scale"):
             check_positive(name, getattr(self, name))
+        if self.pressure not in PRESSURES:
+            raise ValueError(f"unknown pressure {self.pressure!r}; choose one of {', '.join(PRESSURES)}")
+
+    @staticmethod
+    def randomized(seed: int) -> PhysicsSettings:
+        """World ``seed`` of the randomised family (``dexpush bench --plant physics --randomize``).
+
+        Table and pusher friction uniform in [0.15, 0.5], pressure uniform / ring / corners with
+        equal odds, mass uniform in [0.2, 2] kg, pusher radius × [0.8, 1.2]. Drawn from
+        ``numpy.random.default_rng((seed, 7))``, so a world never shares its draws with the trial's start.
+        """
+        rng = np.random.default_rng((int(seed), 7))
+        return PhysicsSettings(mass=float(rng.uniform(0.2, 2.0)), table_friction=float(rng.uniform(0.15, 0.5)),
+                               pusher_friction=float(rng.uniform(0.15, 0.5)),
+                               pressure=PRESSURES[int(rng.integers(len(PRESSURES)))],
+                               pusher_radius_scale=float(rng.uniform(0.8, 1.2)))
 
 
-def _support_points(shape: Shape, spacing: float) -> np.ndarray:
-    """Grid points inside the footprint (body frame), at least one per polygon."""
+def _support_points(shape: Shape, spacing: float, pressure: str = "uniform", band: float = 0.02) -> np.ndarray:
+    """Grid points inside the footprint (body frame), at least one per polygon; for a ``ring`` or
+    ``corners`` pressure only those within ``band`` of the outline or of a convex-hull vertex."""
     from matplotlib.path import Path as MplPath
 
     pts = []
@@ -158,7 +185,17 @@ def _support_points(shape: Shape, spacing: float) -> np.ndarray:
         pts.append(inside if len(inside) else poly.mean(0)[None])
     pts = np.concatenate(pts)
     # pieces of a union may overlap: keep one point per grid cell
-    return np.unique(np.round(pts / (spacing / 4)) * (spacing / 4), axis=0)
+    pts = np.unique(np.round(pts / (spacing / 4)) * (spacing / 4), axis=0)
+    if pressure == "uniform":
+        return pts
+    if pressure == "ring":   # some point within ``band`` lies outside the footprint
+        ang = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
+        probes = pts[:, None] + band * np.stack([np.cos(ang), np.sin(ang)], -1)[None]
+        keep = np.any(distance_to_polygons(probes, shape.polygons) > 0, axis=1)
+    else:
+        hull = convex_hull(np.concatenate(shape.polygons))
+        keep = np.min(np.linalg.norm(pts[:, None] - hull[None], axis=-1), 1) <= band
+    return pts[keep] if keep.sum() >= 3 else pts
 
 
 def _inertia(points: np.ndarray, mass: float, height: float) -> tuple[np.ndarray, np.ndarray]:
@@ -201,7 +238,7 @@ def scene_xml(shape: Shape, settings: PhysicsSettings) -> str:
     """
     s = settings
     h = s.height
-    points = _support_points(shape, s.support_spacing)
+    points = _support_points(shape, s.support_spacing, s.pressure, s.pressure_band)
     com, inertia = _inertia(points, s.mass, h)
     meshes, sides = [], []
     for i, poly in enumerate(convex_prisms(shape)):
@@ -213,7 +250,7 @@ def scene_xml(shape: Shape, settings: PhysicsSettings) -> str:
     supports = [f'<geom type="sphere" size="{s.support_radius}" pos="{x:.6f} {y:.6f} {s.support_radius:.6f}" '
                 f'contype="2" conaffinity="1" friction="{s.table_friction} 0.005 0.0001" mass="0" '
                 f'rgba="0.3 0.3 0.3 1"/>' for x, y in points]
-    rho = shape.pusher_radius
+    rho = shape.pusher_radius * s.pusher_radius_scale
     solref = f"{s.solref[0]} {s.solref[1]}"
     return f"""<mujoco model="dexpush">
   <option timestep="{s.timestep}" integrator="implicitfast" cone="elliptic" impratio="{s.impratio}"/>

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CORNER_MIN_ANGLE", "as_polygon", "concave_corners", "convex_pieces", "distance_to_polygons",
+__all__ = ["CORNER_MIN_ANGLE", "as_polygon", "concave_corners", "convex_hull", "convex_pieces", "distance_to_polygons",
            "inside_polygon", "is_convex", "kernel_centre", "kernel_point", "radial_exact", "radial_table_polygons",
            "table_azimuths"]
 
@@ -64,6 +64,21 @@ def _self_intersection(v: np.ndarray) -> tuple[int, int] | None:
         if np.any(hit):
             return i, int(j[np.argmax(hit)])
     return None
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """The convex hull's corners (k, 2), counter-clockwise (Andrew's monotone chain)."""
+    pts = np.unique(np.asarray(points, dtype=np.float64).reshape(-1, 2), axis=0)
+
+    def chain(seq: np.ndarray) -> list[np.ndarray]:
+        out: list[np.ndarray] = []
+        for q in seq:
+            while len(out) >= 2 and _cross(out[-1] - out[-2], q - out[-2]) <= 0:
+                out.pop()
+            out.append(q)
+        return out[:-1]
+
+    return np.asarray(chain(pts) + chain(pts[::-1]))
 
 
 def is_convex(polygon: np.ndarray) -> bool:

@@ -18,7 +18,7 @@ from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
 from dexpush.se2 import pose_error
 from dexpush.sensing import SensorSettings
-from dexpush.simulate import TrialResult
+from dexpush.simulate import ESTIMATOR_COUNTERS, TrialResult
 from dexpush.tasks import Task
 
 __all__ = ["CONDITION_KEYS", "Episode", "EpisodeRecord", "condition_name", "make_episode", "sensor_label",
@@ -60,6 +60,8 @@ class EpisodeRecord:
     replans: int | None = None            #: GCS: plans made during tracking
     rejected_frames: int | None = None    #: frames the λ estimator's gate rejected (outliers, non-finite)
     estimator_resets: int | None = None   #: times the λ estimator was reset to its prior (non-finite state)
+    estimator_updates: int | None = None  #: informative windows that updated the λ estimate
+    gated_windows: int | None = None      #: of those, windows the innovation gate down-weighted
 
 
 @dataclass
@@ -121,8 +123,7 @@ def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method:
         lanes=int(lanes), plant=plant, sensor=sensor_label(sensor),
         offline_plan_s=round(float(result.plan_s[0]), 3) if result.plan_s else None,
         replans=len(result.plan_s) - 1 if result.plan_s else None,
-        rejected_frames=result.rejected_frames if method == "mppi-ukf" else None,
-        estimator_resets=result.estimator_resets if method == "mppi-ukf" else None)
+        **{name: getattr(result, name) if method == "mppi-ukf" else None for name in ESTIMATOR_COUNTERS})
     return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(task.goal),
                    np.asarray(task.obstacles).reshape(-1, 3))
 

@@ -3,7 +3,8 @@
 * shapes: ``rect``, ``tee``, ``ellipse`` (docs/conventions.md#shapes sizes);
 * parameter scenarios: ``known`` (λ_pred = λ_true) and ``unknown`` (λ_pred starts at [15, 0, 0]);
 * methods: ``mppi`` (fixed λ_pred), ``mppi-ukf`` (online estimation), ``gcs`` (plan and track);
-* plants: ``model`` (the C-GVMM with λ_true) and ``physics`` (MuJoCo).
+* plants: ``model`` (the C-GVMM with λ_true), ``physics`` (MuJoCo) and ``physics-random``
+  (MuJoCo in a seeded random world with a random camera: :func:`make_plant`, :func:`world_sensor`).
 
 This module wires names to objects and is the only place that knows every plant and
 every controller; the modules it imports know nothing of each other.
@@ -17,11 +18,12 @@ from dexpush.controller import ControllerSettings, PushingController
 from dexpush.geometry import Shape
 from dexpush.interfaces import Controller, Plant
 from dexpush.model import LAMBDA_TRUE
-from dexpush.plants import ModelPlant, PhysicsPlant
+from dexpush.plants import ModelPlant, PhysicsPlant, PhysicsSettings
+from dexpush.sensing import SensorSettings
 from dexpush.tasks import Task
 
 __all__ = ["ALL_METHODS", "METHODS", "PARAMS", "PLANTS", "SHAPES", "check_condition", "make_controller",
-           "make_plant", "make_shape"]
+           "make_plant", "make_shape", "world_sensor"]
 
 #: λ_pred of the two parameter scenarios (paper Sec. IV-B)
 PARAMS = {"known": LAMBDA_TRUE, "unknown": (15.0, 0.0, 0.0)}
@@ -29,7 +31,7 @@ _SHAPE_MAKERS = {"rect": Shape.rectangle, "tee": Shape.tee, "ellipse": Shape.ell
 SHAPES = tuple(_SHAPE_MAKERS)
 METHODS = ("mppi", "mppi-ukf")        #: the closed-loop MPPI methods the benchmark runs by default
 ALL_METHODS = (*METHODS, "gcs")        #: plus the GCS plan-and-track baseline (Tasks I, II; dexpush.gcs)
-PLANTS = ("model", "physics")
+PLANTS = ("model", "physics", "physics-random")
 
 
 def make_shape(name: str) -> Shape:
@@ -39,13 +41,22 @@ def make_shape(name: str) -> Shape:
     return _SHAPE_MAKERS[name]()
 
 
-def make_plant(name: str, shape: Shape) -> Plant:
-    """The world of an experiment: ``model`` (C-GVMM with λ_true) or ``physics`` (MuJoCo)."""
+def make_plant(name: str, shape: Shape, seed: int = 0) -> Plant:
+    """The world of an experiment: ``model`` (C-GVMM with λ_true), ``physics`` (MuJoCo), or
+    ``physics-random``: MuJoCo in world ``seed`` of :meth:`dexpush.plants.PhysicsSettings.randomized`."""
     if name == "model":
         return ModelPlant(shape)
     if name == "physics":
         return PhysicsPlant(shape)
+    if name == "physics-random":
+        return PhysicsPlant(shape, PhysicsSettings.randomized(seed))
     raise ValueError(f"unknown plant {name!r}; choose one of {', '.join(PLANTS)}")
+
+
+def world_sensor(plant: object, sensor: SensorSettings | None, seed: int) -> SensorSettings | None:
+    """The camera of trial ``seed``: a random world brings its own
+    (:meth:`dexpush.sensing.SensorSettings.randomized`), other plants take ``sensor`` as given."""
+    return SensorSettings.randomized(seed) if plant == "physics-random" else sensor
 
 
 def check_condition(params: str, method: str) -> None:

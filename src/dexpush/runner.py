@@ -33,9 +33,9 @@ from dexpush.cost import Scene, collides
 from dexpush.geometry import Shape
 from dexpush.interfaces import Controller, Plant, check_plant
 from dexpush.records import Episode, make_episode
-from dexpush.registry import PARAMS, PLANTS, check_condition, make_controller, make_plant, make_shape
+from dexpush.registry import PARAMS, PLANTS, check_condition, make_controller, make_plant, make_shape, world_sensor
 from dexpush.sensing import Camera, SensorSettings
-from dexpush.simulate import TrialResult, TrialSpec, simulate
+from dexpush.simulate import ESTIMATOR_COUNTERS, TrialResult, TrialSpec, simulate
 from dexpush.tasks import MAX_STEPS, Task, get_task, initial_conditions, is_success
 
 __all__ = ["batched", "plant_name", "run_episode", "run_loop", "run_trial", "trial_spec"]
@@ -94,8 +94,8 @@ def run_loop(plant: Plant, controller: Controller, task: Task, shape: Shape, obj
     bar.close()
     return TrialResult(spec or TrialSpec(0), success, np.asarray(states), np.asarray(commands).reshape(-1, 2),
                        np.asarray(lam).reshape(-1, 3), np.asarray(ms),
-                       tuple(getattr(controller, "planning_s", ())), getattr(controller, "rejected_frames", None),
-                       getattr(controller, "estimator_resets", None))
+                       tuple(getattr(controller, "planning_s", ())),
+                       *(getattr(controller, name, None) for name in ESTIMATOR_COUNTERS))
 
 
 def plant_name(plant: str | Plant) -> str:
@@ -129,7 +129,8 @@ def run_trial(task: Task, shape: Shape, spec: TrialSpec, method: str, plant: str
     see :func:`dexpush.simulate.simulate`), otherwise through :func:`run_loop`.
 
     ``plant`` is a name from :data:`dexpush.registry.PLANTS` or a plant object. A
-    realistic ``sensor`` is reseeded per trial (its seed × 1,000,003 + the trial seed).
+    realistic ``sensor`` is reseeded per trial (its seed × 1,000,003 + the trial seed);
+    ``physics-random`` builds world ``spec.seed`` with its own camera (``sensor`` is unused).
     """
     settings = settings or ControllerSettings()
     if batched(plant, method, sensor):
@@ -137,9 +138,10 @@ def run_trial(task: Task, shape: Shape, spec: TrialSpec, method: str, plant: str
                         progress=progress, desc=f"task {task.key} {shape.name}")[0]
     if method == "gcs" and sensor is not None and not sensor.perfect:
         raise ValueError("the GCS baseline runs with exact observations only (no camera options)")
-    if sensor is not None:
+    if sensor is not None and plant != "physics-random":
         sensor = replace(sensor, seed=sensor.seed * 1_000_003 + spec.seed)
-    world = make_plant(plant, shape) if isinstance(plant, str) else check_plant(plant)
+    sensor = world_sensor(plant, sensor, spec.seed)
+    world = make_plant(plant, shape, spec.seed) if isinstance(plant, str) else check_plant(plant)
     controller = make_controller(method, shape, task, spec.params, spec.seed, settings)
     pose, pusher = initial_conditions(task, shape, spec.seed)
     return run_loop(world, controller, task, shape, pose, pusher, sensor=sensor,
@@ -174,4 +176,4 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
     result = run_trial(task, shape, spec, method, plant, sensor, settings, max_steps, progress, lanes, chunk)
     return make_episode(task, shape_name, shape, params if isinstance(params, str) else "custom", method, result,
                         lanes if batched(plant, method, sensor) else 1, plant=plant_name(plant),
-                        sensor=sensor, control_period=settings.mppi.control_period)
+                        sensor=world_sensor(plant, sensor, seed), control_period=settings.mppi.control_period)

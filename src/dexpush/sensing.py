@@ -57,6 +57,16 @@ class SensorSettings:
         """A camera as in docs/conventions.md#plants / issue 6: 15 Hz, 1 mm and 0.5° noise, 60 ms latency, 5 % drops."""
         return SensorSettings(1e-3, float(np.radians(0.5)), 0.0, 15.0, 0.06, 0.05, seed)
 
+    @staticmethod
+    def randomized(seed: int) -> SensorSettings:
+        """Camera ``seed`` of the randomised worlds (``--randomize``): object noise 0.5–2 mm and
+        0.25–1°, pusher noise 0–0.5 mm, 10, 15 or 30 Hz, latency 30–100 ms, 0–10 % drops, each
+        uniform, from ``numpy.random.default_rng((seed, 11))``."""
+        rng = np.random.default_rng((int(seed), 11))
+        return SensorSettings(float(rng.uniform(0.5e-3, 2e-3)), float(np.radians(rng.uniform(0.25, 1.0))),
+                              float(rng.uniform(0.0, 0.5e-3)), float(rng.choice([10.0, 15.0, 30.0])),
+                              float(rng.uniform(0.03, 0.10)), float(rng.uniform(0.0, 0.10)), int(seed))
+
     @property
     def perfect(self) -> bool:
         return (self.pos_std_m == self.heading_std_rad == self.pusher_std_m == self.latency_s == self.drop_prob == 0

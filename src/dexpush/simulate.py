@@ -44,7 +44,7 @@ from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, Contour, integrate
 from dexpush.tasks import MAX_STEPS, Task, initial_conditions, is_success
 
-__all__ = ["TrialResult", "TrialSpec", "simulate"]
+__all__ = ["ESTIMATOR_COUNTERS", "TrialResult", "TrialSpec", "simulate"]
 
 
 @dataclass(frozen=True)
@@ -55,6 +55,10 @@ class TrialSpec:
     seed: int
     params: tuple[float, float, float] = LAMBDA_TRUE
     estimate: bool = False
+
+
+#: the estimator's counters a :class:`TrialResult` carries (and the controller exposes under the same names)
+ESTIMATOR_COUNTERS = ("rejected_frames", "estimator_resets", "estimator_updates", "gated_windows")
 
 
 @dataclass
@@ -70,6 +74,8 @@ class TrialResult:
     plan_s: tuple[float, ...] = ()   #: GCS baseline only: wall time of the offline plan, then of each replan
     rejected_frames: int | None = None    #: frames the estimator's gate rejected (controllers with an estimator)
     estimator_resets: int | None = None   #: times the estimator was reset to its prior after turning non-finite
+    estimator_updates: int | None = None  #: informative windows that updated the estimate
+    gated_windows: int | None = None      #: of those, windows the innovation gate down-weighted
 
     @property
     def steps(self) -> int:
@@ -117,8 +123,8 @@ def _new_lane(task: Task, shape: Shape, spec: TrialSpec, settings: ControllerSet
     pose, pusher = initial_conditions(task, shape, spec.seed)
     x0 = np.concatenate([pose, pusher]).astype(np.float32)
     ok = bool(is_success(x0[:3], task.goal))
-    return Lane(jnp.asarray(x0), policy_init(spec.params, settings, spec.seed), jnp.int32(0), jnp.bool_(ok),
-                jnp.bool_(ok))
+    policy = policy_init(spec.params, settings, spec.seed, shape.footprint_box)
+    return Lane(jnp.asarray(x0), policy, jnp.int32(0), jnp.bool_(ok), jnp.bool_(ok))
 
 
 def _set_lane(lanes: Lane, i: int, lane: Lane) -> Lane:
@@ -178,14 +184,15 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
     args = (contour, scene, jnp.asarray(true_params, jnp.float32), jnp.float32(plant_mu))
     bar = tqdm(total=len(trials), desc=desc, unit="trial", disable=not progress, leave=False)
 
-    def finish(i: int, lane_success: bool, counts: tuple[int, int] | None = None) -> None:
+    def finish(i: int, lane_success: bool, counts: tuple[int, ...] = (0, 0, 0, 0)) -> None:
         log = logs.pop(i)
         def cat(parts: list[np.ndarray], width: int) -> np.ndarray:
             return np.concatenate(parts).reshape(-1, width) if parts else np.zeros((0, width))
 
         res = TrialResult(trials[i], lane_success, np.concatenate([log["x0"], *log["x"]]), cat(log["u"], 2),
                           cat(log["lam"], 3), np.concatenate(log["ms"]) if log["ms"] else np.zeros(0),
-                          rejected_frames=counts[0] if counts else 0, estimator_resets=counts[1] if counts else 0)
+                          rejected_frames=counts[0], estimator_resets=counts[1], estimator_updates=counts[2],
+                          gated_windows=counts[3])
         results[i] = res
         if on_result is not None:
             on_result(res)
@@ -215,7 +222,8 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
                                                  settings=settings, length=chunk, substeps=substeps)
         xs, us, lams, active = (np.asarray(a) for a in (xs, us, lams, active))
         done, success = np.asarray(batch.done), np.asarray(batch.success)
-        rejected, resets = np.asarray(batch.policy.estimator.rejected), np.asarray(batch.policy.estimator.resets)
+        est = batch.policy.estimator
+        counters = np.stack([np.asarray(c) for c in (est.rejected, est.resets, est.updates, est.gated)], -1)
         # each lane's share of the step's wall time: a trial pays for its own lane, not for idle ones
         ms = (time.perf_counter() - t0) * 1e3 / (n_lanes * chunk)
         # touching an obstacle ends a trial as a failure (conventions.md#benchmark-tasks); checked on the logged
@@ -234,7 +242,7 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
             logs[i]["lam"].append(lams[m, k][:n].astype(np.float64))
             logs[i]["ms"].append(np.full(n, ms))
             if len(touched) or done[k]:
-                finish(i, bool(success[k]) and not len(touched), (int(rejected[k]), int(resets[k])))
+                finish(i, bool(success[k]) and not len(touched), tuple(int(c) for c in counters[k]))
                 owner[k] = None
                 batch = batch._replace(done=batch.done.at[k].set(True))   # idle until refilled
         bar.set_postfix(busy=sum(o is not None for o in owner), refresh=False)
