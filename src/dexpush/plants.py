@@ -208,6 +208,9 @@ def _inertia(points: np.ndarray, mass: float, height: float) -> tuple[np.ndarray
     return com, np.array([ixx, iyy, izz])
 
 
+#: the pusher body's mass (kg): heavy, so a contact impulse changes its velocity by < 0.1 mm/s a step
+PUSHER_MASS = 100.0
+
 #: the most convex prisms a slider may be built from (each is a MuJoCo mesh the pusher is tested against)
 MAX_PRISMS = 64
 
@@ -266,8 +269,10 @@ def scene_xml(shape: Shape, settings: PhysicsSettings) -> str:
       {''.join(sides)}
       {''.join(supports)}
     </body>
-    <body name="pusher" mocap="true" pos="0 0 {h / 2 + s.support_radius:.6f}">
-      <geom type="cylinder" size="{rho} {h}" contype="8" conaffinity="4"
+    <body name="pusher" pos="0 0 {h / 2 + s.support_radius:.6f}">
+      <joint name="pusher_x" type="slide" axis="1 0 0"/>
+      <joint name="pusher_y" type="slide" axis="0 1 0"/>
+      <geom type="cylinder" size="{rho} {h}" contype="8" conaffinity="4" mass="{PUSHER_MASS}"
             friction="{s.pusher_friction} 0.005 0.0001" rgba="0.1 0.7 0.8 1"/>
     </body>
   </worldbody>
@@ -278,8 +283,9 @@ class PhysicsPlant:
     """A MuJoCo world standing in for the real robot (docs/conventions.md#plants "physics plant").
 
     The slider is a rigid body on a table with Coulomb friction, pushed by a kinematic
-    (mocap) cylinder that follows the commanded velocity exactly, as a stiff
-    position-controlled robot arm would. Nothing here uses the C-GVMM: the motion comes
+    cylinder that follows the commanded velocity exactly, as a stiff position-controlled
+    robot arm would (a heavy body on two slide joints whose position and velocity are set
+    every physics step, so its contact friction acts on its sliding). Nothing here uses the C-GVMM: the motion comes
     from MuJoCo's contact dynamics, so the controller meets a world that is not its model.
     Same interface as :class:`ModelPlant` (one scene, not a batch).
 
@@ -297,6 +303,8 @@ class PhysicsPlant:
         self.model = mujoco.MjModel.from_xml_string(scene_xml(shape, self.settings))
         self.data = mujoco.MjData(self.model)
         self._qadr = self.model.jnt_qposadr[self.model.joint("slider").id]
+        self._pq = [self.model.jnt_qposadr[self.model.joint(n).id] for n in ("pusher_x", "pusher_y")]
+        self._pv = [self.model.jnt_dofadr[self.model.joint(n).id] for n in ("pusher_x", "pusher_y")]
         self._z = self.settings.height / 2 + self.settings.support_radius
         self.time = 0.0
         self._ready = False
@@ -310,7 +318,7 @@ class PhysicsPlant:
         q = self.data.qpos[self._qadr:self._qadr + 7]
         w, x, y, z = q[3:7]
         theta = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-        return np.array([q[0], q[1], theta, *self.data.mocap_pos[0, :2]])
+        return np.array([q[0], q[1], theta, *self.data.qpos[self._pq]])
 
     def observe(self) -> Observation:
         x = self.state
@@ -326,7 +334,7 @@ class PhysicsPlant:
         mj = self._mj
         mj.mj_resetData(self.model, self.data)
         self.data.qpos[self._qadr:self._qadr + 7] = [q[0], q[1], 0.0, np.cos(q[2] / 2), 0, 0, np.sin(q[2] / 2)]
-        self.data.mocap_pos[0] = [p[0], p[1], self._z]
+        self.data.qpos[self._pq] = p
         mj.mj_forward(self.model, self.data)
         self.time = self._target = 0.0
         self._steps = 0
@@ -345,8 +353,13 @@ class PhysicsPlant:
         self._target += dt          # whole physics steps, rounded on the running total: no drift
         n = round(self._target / h) - self._steps
         for _ in range(n):
-            self.data.mocap_pos[0, :2] += v * h
+            # the pusher is kinematic: it starts each physics step where the command put it, with the
+            # commanded velocity, which the contact solver sees (a teleported mocap body has none, so its
+            # friction could not act on its own sliding); the step's end is then set exactly
+            target = self.data.qpos[self._pq] + v * h
+            self.data.qvel[self._pv] = v
             self._mj.mj_step(self.model, self.data)
+            self.data.qpos[self._pq] = target
             if self.data.ncon:
                 self.max_penetration = max(self.max_penetration, float(-self.data.contact.dist.min()))
         self._steps += n
