@@ -67,7 +67,7 @@ from dexpush.se2 import wrap_angle
 from dexpush.ukf import SigmaPoints, UKFState, clean_covariance, ukf_update
 
 __all__ = ["EstimatorState", "UKFSettings", "WindowUpdate", "estimator_init", "estimator_observe", "frame_gate",
-           "prior_covariance", "rate_limited", "window_update"]
+           "prior_covariance", "rate_limited", "state_bounds", "window_update"]
 
 
 @dataclass(frozen=True)
@@ -167,10 +167,10 @@ def window_update(state: UKFState, contour: Contour, window: jnp.ndarray, dt: jn
                   settings: UKFSettings, substeps: int, lower: jnp.ndarray | None = None,
                   upper: jnp.ndarray | None = None) -> WindowUpdate:
     """UKF step on one window of observed states (M+1, 5) within the bounds ``lower``/``upper``
-    (default: the settings'). Pure."""
+    (default: :func:`state_bounds` without a footprint). Pure."""
     prior_cov = prior_covariance(settings)
-    lower = jnp.asarray(settings.lower, jnp.float32) if lower is None else lower
-    upper = jnp.asarray(settings.upper, jnp.float32) if upper is None else upper
+    if lower is None or upper is None:
+        lower, upper = state_bounds(settings)
     x0 = window[0]
     moves = (window[1:, 3:] - window[:-1, 3:]) / dt            # recorded pusher velocities
     observed = window[1:, :3]
@@ -215,6 +215,21 @@ class EstimatorState(NamedTuple):
     nis: jnp.ndarray          #: NIS/m of the last informative window (0 before the first)
 
 
+def state_bounds(settings: UKFSettings, box: object = None) -> tuple[jnp.ndarray, jnp.ndarray]:
+    """Lower and upper bounds (n,) of the filter's state: ``lower``/``upper``, x_bf and y_bf replaced by
+    the footprint's bounding box ``box`` (x_lo, y_lo, x_hi, y_hi) when given and ``bounds_from_footprint``,
+    and μ_c's ``mu_bounds`` appended with ``estimate_mu``."""
+    lower, upper = np.asarray(settings.lower, np.float64), np.asarray(settings.upper, np.float64)
+    if box is not None and settings.bounds_from_footprint:
+        b = np.asarray(box, dtype=np.float64)
+        if b.shape != (4,) or not np.all(np.isfinite(b)) or np.any(b[2:] <= b[:2]):
+            raise ValueError(f"box must be (x_lo, y_lo, x_hi, y_hi) with lo < hi, got {box!r}")
+        lower[1:], upper[1:] = b[:2], b[2:]
+    if settings.estimate_mu:
+        lower, upper = np.append(lower, settings.mu_bounds[0]), np.append(upper, settings.mu_bounds[1])
+    return jnp.asarray(lower, jnp.float32), jnp.asarray(upper, jnp.float32)
+
+
 def estimator_init(initial: jnp.ndarray, settings: UKFSettings, box: object = None,
                    mu: float = 0.3) -> EstimatorState:
     """The prior: mean ``initial`` (λ; and ``mu`` with ``settings.estimate_mu``) clipped into the
@@ -223,17 +238,10 @@ def estimator_init(initial: jnp.ndarray, settings: UKFSettings, box: object = No
     ``box`` (x_lo, y_lo, x_hi, y_hi), the footprint's bounding box in {B} (``Shape.footprint_box``),
     bounds x_bf, y_bf when ``settings.bounds_from_footprint``; else ``lower``/``upper`` do.
     """
-    lower, upper = np.asarray(settings.lower, np.float64), np.asarray(settings.upper, np.float64)
-    if box is not None and settings.bounds_from_footprint:
-        b = np.asarray(box, dtype=np.float64)
-        if b.shape != (4,) or not np.all(np.isfinite(b)) or np.any(b[2:] <= b[:2]):
-            raise ValueError(f"box must be (x_lo, y_lo, x_hi, y_hi) with lo < hi, got {box!r}")
-        lower[1:], upper[1:] = b[:2], b[2:]
+    lower, upper = state_bounds(settings, box)
     initial = jnp.asarray(initial, jnp.float32)
     if settings.estimate_mu:
-        lower, upper = np.append(lower, settings.mu_bounds[0]), np.append(upper, settings.mu_bounds[1])
         initial = jnp.append(initial, jnp.float32(mu))
-    lower, upper = jnp.asarray(lower, jnp.float32), jnp.asarray(upper, jnp.float32)
     mean = jnp.clip(initial, lower, upper)
     zero = jnp.zeros((), jnp.int32)
     return EstimatorState(UKFState(mean, prior_covariance(settings)),

@@ -138,7 +138,7 @@ def run_trial(task: Task, shape: Shape, spec: TrialSpec, method: str, plant: str
                         progress=progress, desc=f"task {task.key} {shape.name}")[0]
     if method == "gcs" and sensor is not None and not sensor.perfect:
         raise ValueError("the GCS baseline runs with exact observations only (no camera options)")
-    if sensor is not None and plant != "physics-random":
+    if sensor is not None:
         sensor = replace(sensor, seed=sensor.seed * 1_000_003 + spec.seed)
     sensor = world_sensor(plant, sensor, spec.seed)
     world = make_plant(plant, shape, spec.seed) if isinstance(plant, str) else check_plant(plant)
