@@ -64,6 +64,7 @@ def test_physics_plant_with_a_realistic_camera_end_to_end(tmp_path: Path) -> Non
     (["run", "--plant", "bullet"], "invalid choice: 'bullet'"),
     (["run", "--drop", "1.5"], "drop_prob must be in [0, 1)"),
     (["bench", "--seeds", "5-2"], "bad seed range"),
+    (["bench", "--randomize"], "--randomize randomises the physics plant's world: use it with --plant physics"),
 ])
 def test_bad_arguments_give_one_clear_line(args, message, tmp_path: Path) -> None:
     proc = dexpush(*args, "--out", str(tmp_path))
