@@ -11,8 +11,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "dexpush"
 
 #: lowest first; a module may import only from strictly lower layers (or its own sub-package)
 LAYERS = [
-    {"fastmath", "se2", "checks", "files", "compile_cache", "polygons"},
-    {"geometry", "interfaces", "corner"},
+    {"fastmath", "se2", "checks", "files", "compile_cache", "polygons", "xla_options"},
+    {"geometry", "interfaces", "corner", "noise"},
     {"model"},
     {"cost", "mppi", "ukf", "tasks", "fitting"},
     {"estimator", "dataset", "viz"},

@@ -11,6 +11,7 @@ The stable public API (names and settings fields kept from version 0.2 on; see d
   benchmark trial by name).
 """
 
+from dexpush import xla_options  # noqa: F401  (first: sets XLA_FLAGS before any JAX backend starts)
 from dexpush.controller import ControllerSettings, PushingController
 from dexpush.estimator import UKFSettings
 from dexpush.geometry import Shape

@@ -102,9 +102,9 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        # one XLA thread per worker process: the workers are the parallelism
-        saved = os.environ.get("XLA_FLAGS")
-        os.environ["XLA_FLAGS"] = f"{saved or ''} --xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+        # one XLA thread per worker process (dexpush.xla_options): the workers are the parallelism
+        saved = os.environ.get("NPROC")
+        os.environ["NPROC"] = "1"
         try:
             with ProcessPoolExecutor(min(workers, len(groups)), mp_context=multiprocessing.get_context("spawn")) as ex:
                 futures = [ex.submit(_run_group, out, t, sh, **common, position=i % workers)
@@ -113,9 +113,9 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
                     f.result()
         finally:
             if saved is None:
-                os.environ.pop("XLA_FLAGS", None)
+                os.environ.pop("NPROC", None)
             else:
-                os.environ["XLA_FLAGS"] = saved
+                os.environ["NPROC"] = saved
     order = [condition_name(t, sh, p, m) for t in task_keys for sh in shapes for p in params
              for m in _methods_for(get_task(t), methods)]
     records = {name: _load_condition(out / "conditions" / f"{name}.json") for name in order}

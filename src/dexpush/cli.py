@@ -403,8 +403,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--lanes", type=_positive_int, default=BENCH_LANES,
                        help=f"trials simulated together in one vmapped batch (default {BENCH_LANES})")
     bench.add_argument("--no-figures", action="store_true", help="skip the per-condition trajectory figures")
-    bench.add_argument("--workers", type=_positive_int, default=1,
-                       help="processes, one (task, shape) group each (default 1; use the core count)")
+    bench.add_argument("--workers", type=_positive_int, default=os.cpu_count() or 1,
+                       help="processes, one (task, shape) group each, one XLA thread each (default: the "
+                            f"core count, {os.cpu_count() or 1} here)")
     bench.add_argument("--plant", default="model", choices=PLANTS,
                        help="model: batched C-GVMM world; physics: MuJoCo, trials one by one; physics-random: "
                             "the same as --plant physics --randomize (default model)")

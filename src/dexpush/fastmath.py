@@ -19,7 +19,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["atan2", "cos", "sincos"]
+__all__ = ["atan2", "cos", "materialize", "sincos", "traced_one"]
 
 _ATAN = (-0.3333314528, 0.1999355085, -0.1420889944, 0.1065626393,
          -0.0752896400, 0.0429096138, -0.0161657367, 0.0028662257)
@@ -66,3 +66,26 @@ def sincos(x: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray]:
 def cos(x: jnp.ndarray) -> jnp.ndarray:
     """cos x (see :func:`sincos`)."""
     return sincos(x)[1]
+
+
+def materialize(one: jnp.ndarray | float, *values: jnp.ndarray) -> tuple[jnp.ndarray, ...]:
+    """``values`` divided by ``one``, a traced 1 (:func:`traced_one`): the same numbers, stored once.
+
+    XLA's CPU backend fuses elementwise code into loops with one output each and copies
+    cheap producers into every loop that uses them; a C-GVMM step shares a few dozen
+    intermediates among several outputs, so its loops recomputed them: 45 loops and 2.8×
+    the multiplications of the program as written. A division is not copied: a value
+    divided by a runtime 1 is computed in one loop, stored, and read by its users. Placed at
+    the seams of the step (docs/performance.md lists them and the measurements) this halved
+    an MPPI iteration on the CPU. Division by 1 is exact, so results do not change beyond
+    the rounding of fused multiply-adds. With a Python number for ``one`` (no jit-time value
+    to divide by) the values are returned as they are.
+    """
+    if isinstance(one, int | float):
+        return values
+    return tuple(v / one for v in values)
+
+
+def traced_one(x: jnp.ndarray | float) -> jnp.ndarray | float:
+    """1 + 0·x: a 1 that XLA cannot fold when ``x`` is traced (a Python 1.0 when it is a number)."""
+    return 1.0 + 0.0 * x

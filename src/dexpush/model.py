@@ -31,6 +31,7 @@ of evaluations into a few elementwise loops; everything broadcasts over leading 
 
 from __future__ import annotations
 
+from functools import partial
 from typing import NamedTuple
 
 import jax
@@ -151,17 +152,19 @@ def _sym3_mul(m: tuple[jnp.ndarray, ...], v: tuple[jnp.ndarray, ...]) -> tuple[j
             m02 * v[0] + m12 * v[1] + m22 * v[2])
 
 
-def _contact_frame(contour: Contour, px: jnp.ndarray, py: jnp.ndarray) -> tuple[jnp.ndarray, ...]:
+def _contact_frame(contour: Contour, px: jnp.ndarray, py: jnp.ndarray,
+                   one: jnp.ndarray | float = 1.0) -> tuple[jnp.ndarray, ...]:
     """Contact geometry for the pusher at p = (px, py) in {B} (φ_c = atan2(py, px)).
 
     Returns φ, |p|, R(φ), the contour point r, |∂φr|, inward normal n̂ and tangent t̂.
-    cos φ and sin φ come from p itself, so the only transcendental is one atan2.
+    cos φ and sin φ come from p itself, so the only transcendental is one atan2. ``one``
+    (a traced 1, see :func:`dexpush.fastmath.materialize`) marks φ and R, R' to be stored once.
     """
-    phi = fastmath.atan2(py, px)
+    (phi,) = fastmath.materialize(one, fastmath.atan2(py, px))
     dist = jnp.sqrt(px * px + py * py)
     inv = 1.0 / jnp.where(dist > 0, dist, 1.0)
     c, s = jnp.where(dist > 0, px * inv, 1.0), py * inv
-    R, dR = contour.lookup(phi)
+    R, dR = fastmath.materialize(one, *contour.lookup(phi))
     rx, ry = R * c, R * s
     drx, dry = dR * c - R * s, dR * s + R * c
     ndr = jnp.sqrt(drx * drx + dry * dry)
@@ -187,23 +190,30 @@ def _like(x: State, parts: tuple[jnp.ndarray, ...]) -> State:
     return tuple(parts) if isinstance(x, tuple | list) else jnp.stack(parts, -1)
 
 
-def _to_body(xs: tuple[jnp.ndarray, ...]) -> tuple[jnp.ndarray, ...]:
-    """cos θ, sin θ and the pusher position relative to the object in {B}."""
+def _to_body(xs: tuple[jnp.ndarray, ...], one: jnp.ndarray | float = 1.0) -> tuple[jnp.ndarray, ...]:
+    """cos θ, sin θ and the pusher position relative to the object in {B} (each stored once
+    when ``one`` is a traced 1, see :func:`dexpush.fastmath.materialize`)."""
     xb, yb, th, xc, yc = xs
-    sth, cth = fastmath.sincos(th)
+    sth, cth = fastmath.materialize(one, *fastmath.sincos(th))
     dx, dy = xc - xb, yc - yb
-    return cth, sth, cth * dx + sth * dy, -sth * dx + cth * dy
+    return (cth, sth, *fastmath.materialize(one, cth * dx + sth * dy, -sth * dx + cth * dy))
 
 
 def _solve(contour: Contour, xs: tuple[jnp.ndarray, ...], u: jnp.ndarray, params: jnp.ndarray,
-           mu: float | jnp.ndarray, alpha: float | jnp.ndarray) -> dict[str, jnp.ndarray]:
-    """Algorithm 1 on state components; returns every intermediate by name (unstacked)."""
+           mu: float | jnp.ndarray, alpha: float | jnp.ndarray,
+           one: jnp.ndarray | float = 1.0) -> dict[str, jnp.ndarray]:
+    """Algorithm 1 on state components; returns every intermediate by name (unstacked).
+
+    ``one``, a traced 1 (:func:`dexpush.fastmath.materialize`), stores the intermediates that
+    several later loops share, where XLA's CPU backend would otherwise recompute them.
+    """
+    keep = partial(fastmath.materialize, one)
     ux, uy = u[..., 0], u[..., 1]
-    cth, sth, px, py = _to_body(xs)
-    phi, dist, R, rx, ry, ndr, nx, ny, tx, ty = _contact_frame(contour, px, py)   # line 1
+    cth, sth, px, py = _to_body(xs, one)
+    phi, dist, R, rx, ry, ndr, nx, ny, tx, ty = _contact_frame(contour, px, py, one)   # line 1
     in_contact = dist <= R + CONTACT_TOL                                 # line 5
 
-    vbx, vby = cth * ux + sth * uy, -sth * ux + cth * uy                 # R(θ)ᵀ u
+    vbx, vby = keep(cth * ux + sth * uy, -sth * ux + cth * uy)          # R(θ)ᵀ u
     w0, w1 = nx * vbx + ny * vby, tx * vbx + ty * vby                    # line 2
 
     # wrench directions J*ᵀ n̂ and J*ᵀ t̂ (force, moment r × f)
@@ -214,6 +224,7 @@ def _solve(contour: Contour, xs: tuple[jnp.ndarray, ...], u: jnp.ndarray, params
     g00 = Wn[0] * MWn[0] + Wn[1] * MWn[1] + Wn[2] * MWn[2]               # line 4: Γ = N J* C
     g01 = Wn[0] * MWt[0] + Wn[1] * MWt[1] + Wn[2] * MWt[2]
     g11 = Wt[0] * MWt[0] + Wt[1] * MWt[1] + Wt[2] * MWt[2]
+    g00, g01, g11 = keep(g00, g01, g11)
     det = g00 * g11 - g01 * g01
     a0, a1 = (g11 * w0 - g01 * w1) / det, (g00 * w1 - g01 * w0) / det    # Γ⁻¹w
     e0, e1 = -g01 * ndr / det, g00 * ndr / det                           # g = Γ⁻¹η, line 3
@@ -233,11 +244,12 @@ def _solve(contour: Contour, xs: tuple[jnp.ndarray, ...], u: jnp.ndarray, params
     zero = jnp.zeros_like(a0)
     fn = jnp.where(stick, a0, jnp.where(ccw, fp_c, jnp.where(cw, fm_w, zero)))   # line 23
     ft = jnp.where(stick, a1, jnp.where(ccw, mu * fp_c, jnp.where(cw, -mu * fm_w, zero)))
+    fn, ft = keep(fn, ft)
     phidot = jnp.where(ccw, pd_c, jnp.where(cw, -npd_w, zero))
     mode = jnp.where(stick, STICK, jnp.where(ccw, SLIDE_CCW, jnp.where(cw, SLIDE_CW, FREE)))
 
     F = (fn * Wn[0] + ft * Wt[0], fn * Wn[1] + ft * Wt[1], fn * Wn[2] + ft * Wt[2])
-    Vx, Vy, Vw = _sym3_mul(M, F)                                         # V_sb = C f_c (eq. 5)
+    Vx, Vy, Vw = keep(*_sym3_mul(M, F))                                  # V_sb = C f_c (eq. 5)
     out = dict(mode=mode, fn=fn, ft=ft, phidot=phidot, phi=phi, in_contact=in_contact,
                a=(a0, a1), e=(e0, e1))
     if contour.corners is not None:                     # N_c = 2 at a concave corner (eq. 5–8)
@@ -309,14 +321,14 @@ def resolve_penetration(contour: Contour, x: State, keep_contact: jnp.ndarray | 
 
 
 def _resolve(contour: Contour, xs: tuple[jnp.ndarray, ...], keep_contact: jnp.ndarray | bool,
-             body: tuple[jnp.ndarray, ...]) -> tuple[jnp.ndarray, ...]:
+             body: tuple[jnp.ndarray, ...], one: jnp.ndarray | float = 1.0) -> tuple[jnp.ndarray, ...]:
     """:func:`resolve_penetration` on components, given ``_to_body(xs)``."""
     cth, sth, px, py = body
-    _, dist, R, _, _, _, nx, ny, _, _ = _contact_frame(contour, px, py)
+    _, dist, R, _, _, _, nx, ny, _, _ = _contact_frame(contour, px, py, one)
     radial = jnp.where(keep_contact, R - dist, jnp.maximum(R - dist, 0.0))
     # depth along the outward normal: (R − |p|)·(ê_r · n̂_out), with n̂_out = −n̂
     inv = 1.0 / jnp.where(dist > 0, dist, 1.0)
-    depth = radial * -(nx * px + ny * py) * inv
+    (depth,) = fastmath.materialize(one, radial * -(nx * px + ny * py) * inv)
     mx, my = cth * nx - sth * ny, sth * nx + cth * ny   # inward normal in {S}: the push direction
     return (xs[0] + depth * mx, xs[1] + depth * my, *xs[2:])
 
@@ -332,10 +344,11 @@ def step(contour: Contour, x: State, u: jnp.ndarray, dt: float | jnp.ndarray,
     the result has the same form.
     """
     xs = components(x)
-    o = _solve(contour, xs, u, params, mu, 1.0)
+    one = fastmath.traced_one(dt)     # seams for XLA's CPU fusion (dexpush.fastmath.materialize)
+    o = _solve(contour, xs, u, params, mu, 1.0, one)
     moved = tuple(xi + dt * di for xi, di in zip(xs, o["xdot"]))
-    body = _to_body(moved)
-    fixed = _resolve(contour, moved, o["mode"] != FREE, body)
+    body = _to_body(moved, one)
+    fixed = _resolve(contour, moved, o["mode"] != FREE, body, one)
     if "corner" in o:
         fixed = corner_fix(o["corner"], moved, fixed, body[0], body[1])
     return _like(x, fixed)
