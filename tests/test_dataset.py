@@ -112,12 +112,13 @@ def test_bad_data_gives_clear_errors(tmp_path: Path, make, match) -> None:
 
 def test_validate_mit_cli(folder: Path, tmp_path: Path) -> None:
     proc = subprocess.run([sys.executable, "-m", "dexpush.cli", "validate-mit", str(folder), "--out", str(tmp_path),
-                           "--quiet"], capture_output=True, text=True, timeout=600)
+                           "--online", "--quiet"], capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout.strip().splitlines()[-1])
     for key in ("pushes", "samples", "mode_agreement", "one_step_error_mm", "whole_push_error_mm"):
         assert key in summary
-    for name in ("mode_decisions.png", "confusion.png", "validation.json"):
+    assert set(summary["online"]) == {"rect1"} and "nmse_online" in summary["online"]["rect1"]
+    for name in ("mode_decisions.png", "confusion.png", "validation.json", "online.json", "lambda.png"):
         assert (tmp_path / name).stat().st_size > 0
     missing = subprocess.run([sys.executable, "-m", "dexpush.cli", "validate-mit", str(tmp_path / "nope")],
                              capture_output=True, text=True, timeout=120)
@@ -145,3 +146,19 @@ def test_a_stationary_pusher_or_an_all_nan_stream_is_one_clear_error(tmp_path: P
         fh["object_pose"] = obj
     assert main(["validate-mit", str(tmp_path / "nan"), "--out", str(tmp_path / "o2"), "--quiet"]) == 2
     assert "0 finite samples" in capsys.readouterr().err
+
+
+def test_online_estimation_learns_beta_from_pushes(folder: Path) -> None:
+    """validate-mit --online's core: the controller's UKF over the pushes in order moves β from the prior
+    toward the β that generated them, and predicts the one-step motion at least as well as the prior."""
+    from dexpush.online import nmse, online_session
+
+    pushes = load_folder(folder)
+    summary, (t, lam) = online_session(pushes, OBJECTS["rect1"](), prior=(15.0, 0.0, 0.0), mu=0.25)
+    assert summary["updates"] > 0 and np.all(np.isfinite(lam)) and len(t) == len(lam)
+    beta = summary["lambda_final"][0]
+    assert abs(np.log(beta / TRUE_LAMBDA[0])) < 0.5 * abs(np.log(15.0 / TRUE_LAMBDA[0]))
+    assert summary["nmse_online"] <= summary["nmse_prior"] + 1e-3
+    assert 1 <= summary["settled_after_push"] <= len(pushes)
+    obs = np.random.default_rng(0).normal(size=(50, 3))
+    assert nmse(obs, obs) == 0.0 and nmse(np.zeros_like(obs), obs) == pytest.approx(1.0, rel=0.1)

@@ -16,7 +16,7 @@ LAYERS = [
     {"model"},
     {"cost", "mppi", "ukf", "tasks", "fitting"},
     {"estimator", "dataset", "viz"},
-    {"controller", "plants", "sensing", "gcs", "logs"},
+    {"controller", "plants", "sensing", "gcs", "logs", "online"},
     {"simulate"},
     {"registry"},
     {"records", "config"},

@@ -4,7 +4,7 @@
     dexpush run --task I --shape tee --params unknown --method mppi --seed 3 --out DIR
     dexpush bench [--tasks I,II --shapes rect --trials 5 --out DIR]   the Sec. IV-B table
     dexpush bench --tasks I --shapes tee --params unknown --methods mppi --seeds 7   re-run one trial
-    dexpush validate-mit DATA_DIR [--out DIR]  C-GVMM against recorded MIT pushes
+    dexpush validate-mit DATA_DIR [--out DIR] [--online]  C-GVMM (and the online UKF) against recorded MIT pushes
     dexpush fit LOG --shape FILE.toml        fit λ (and μ_c) to your own recorded pushes
 
 Every command writes its files under ``--out`` and prints a one-line JSON summary last.
@@ -156,8 +156,39 @@ def _cmd_validate(args: argparse.Namespace) -> dict:
     summary = {k: v for k, v in result.summary.items() if k != "objects"}
     summary["beta_fit"] = {k: e["beta_fit"] for k, e in result.summary["objects"].items()}
     summary["lambda_fit"] = {k: e.get("lambda_fit") for k, e in result.summary["objects"].items()}
+    if args.online:
+        summary["online"] = _validate_online(pushes, args, out, files)
     summary["files"] = files
     return summary
+
+
+def _validate_online(pushes: list, args: argparse.Namespace, out: Path, files: dict) -> dict:
+    """``validate-mit --online``: dexpush.online per object, written to online.json and lambda.png."""
+    import matplotlib.pyplot as plt
+
+    from dexpush.dataset import OBJECTS
+    from dexpush.files import write_json_atomic
+    from dexpush.online import online_session
+    from dexpush.registry import PARAMS
+    from dexpush.viz import plot_online_lambda
+
+    per_object, traces = {}, {}
+    for name in sorted({p.shape for p in pushes}):
+        per_object[name], traces[name] = online_session([p for p in pushes if p.shape == name], OBJECTS[name](),
+                                                        prior=PARAMS["unknown"], mu=args.mu)
+        if not args.quiet:
+            e = per_object[name]
+            print(f"{name} online: β {e['prior'][0]:g} → {e['lambda_final'][0]:.1f} (settled after push "
+                  f"{e['settled_after_push']} of {e['pushes']}), whole push {e['whole_push_error_mm_online']:.2f} mm / "
+                  f"{e['whole_push_error_deg_online']:.2f}° (prior {e['whole_push_error_mm_prior']:.2f} mm / "
+                  f"{e['whole_push_error_deg_prior']:.2f}°), NMSE {e['nmse_online']:.2f} (prior {e['nmse_prior']:.2f})",
+                  file=sys.stderr)
+    files["online"], files["lambda"] = str(out / "online.json"), str(out / "lambda.png")
+    write_json_atomic(files["online"], per_object)
+    plt.close(plot_online_lambda(traces, files["lambda"]))
+    return {name: {k: e[k] for k in ("lambda_final", "settled_after_push", "whole_push_error_deg_online",
+                                     "whole_push_error_deg_prior", "nmse_online", "nmse_prior")}
+            for name, e in per_object.items()}
 
 
 def _cmd_fit(args: argparse.Namespace) -> dict:
@@ -424,6 +455,9 @@ def build_parser() -> argparse.ArgumentParser:
     val.add_argument("data_dir", help="folder with the dataset's motion_*.h5 / motion_*.json files")
     val.add_argument("--out", default="out/validate-mit", help="output folder (default out/validate-mit)")
     val.add_argument("--mu", type=float, default=0.25, help="pusher–object friction μ_c (default 0.25, as the paper)")
+    val.add_argument("--online", action="store_true",
+                     help="also run the controller's UKF over each object's pushes in order: λ over time, "
+                          "convergence, whole-push error and NMSE with the online estimate (online.json, lambda.png)")
     val.add_argument("--quiet", action="store_true", help="no per-object lines on stderr")
     val.set_defaults(func=_cmd_validate)
 

@@ -30,7 +30,7 @@ from dexpush.model import FREE, SLIDE_CCW, SLIDE_CW, STICK, Contour, integrate, 
 from dexpush.se2 import pose_error, wrap_angle
 
 __all__ = ["RATE_HZ", "FitResult", "LambdaFit", "Push", "Samples", "fit_beta", "fit_lambda", "fit_pushes",
-           "replay_push", "resample", "residuals", "samples", "whole_push_errors"]
+           "one_step", "replay_push", "resample", "residuals", "samples", "snap_contact", "whole_push_errors"]
 
 RATE_HZ = 25.0
 _RAW_HZ = 250.0
@@ -105,7 +105,7 @@ def samples(pushes: list[Push], shape: Shape, separation_mm: float, stick_ratio:
         U = np.diff(p.pusher_xy, axis=0) / dt
         phi, R, dR, gap, on_contour = _contact_geometry(contour, X)
         contact = gap <= separation_mm / 1000
-        X[contact, 3:] = on_contour[contact]   # observed contact: pusher on the contour
+        X[contact, 3:] = on_contour[contact]   # observed contact: pusher on the contour (as snap_contact)
         slide = np.hypot(R, dR)[:-1] * np.diff(phi) / dt        # contact-point speed along the contour
         speed = np.linalg.norm(U, axis=-1)
         obs = np.where(~(contact[:-1] & contact[1:]), FREE,
@@ -115,6 +115,23 @@ def samples(pushes: list[Push], shape: Shape, separation_mm: float, stick_ratio:
         parts.append((X[:-1][moving], U[moving], p.object_pose[1:][moving], obs[moving],
                       np.full(int(moving.sum()), i)))
     return Samples(*(np.concatenate([pp[j] for pp in parts]) for j in range(5)))
+
+
+def snap_contact(contour: Contour, X: np.ndarray, separation_mm: float) -> np.ndarray:
+    """Observed states X (T, 5) with every pusher within ``separation_mm`` of the contour (or inside it)
+    moved radially onto it: the tip/Vicon calibration offset removed, as :func:`samples` does."""
+    X = np.array(X, np.float64)
+    _, _, _, gap, on_contour = _contact_geometry(contour, X)
+    contact = gap <= separation_mm / 1000
+    X[contact, 3:] = on_contour[contact]
+    return X
+
+
+def one_step(contour: Contour, states: np.ndarray, inputs: np.ndarray, lam: np.ndarray, mu: float) -> np.ndarray:
+    """The model's states (S, 5) after one 25 Hz period from ``states`` with ``inputs``; ``lam`` is (3,)
+    or one λ per sample (S, 3)."""
+    return np.asarray(_one_step(contour, jnp.asarray(states, jnp.float32), jnp.asarray(inputs, jnp.float32),
+                                jnp.asarray(lam, jnp.float32), jnp.float32(mu)), np.float64)
 
 
 @jax.jit
@@ -129,8 +146,7 @@ def _replay_final(contour: Contour, x0: jnp.ndarray, U: jnp.ndarray, lam: jnp.nd
 
 def residuals(contour: Contour, smp: Samples, lam: np.ndarray, mu: float) -> np.ndarray:
     """One-step residuals [Δx, Δy, c·Δθ] (m), c = 0.05 m/rad (a 5-cm lever arm)."""
-    pred = np.asarray(_one_step(contour, jnp.asarray(smp.states, jnp.float32), jnp.asarray(smp.inputs, jnp.float32),
-                                jnp.asarray(lam, jnp.float32), jnp.float32(mu)), np.float64)[:, :3]
+    pred = one_step(contour, smp.states, smp.inputs, lam, mu)[:, :3]
     d = pred - smp.next_pose
     d[:, 2] = 0.05 * wrap_angle(d[:, 2])
     return d.reshape(-1)

@@ -325,3 +325,23 @@ def plot_params(params: np.ndarray, truth: object | None, path: str | os.PathLik
     if path is not None:
         save_figure_atomic(fig, path, dpi=130)
     return fig
+
+
+def plot_online_lambda(traces: dict, path: str | os.PathLike | None = None) -> plt.Figure:
+    """λ_pred over a session of recorded pushes per object (``validate-mit --online``): β, x_bf, y_bf
+    against time; ``traces`` maps a name to (time (T,), λ_pred (T, 3))."""
+    fig, axes = plt.subplots(3, 1, figsize=(7, 5.5), sharex=True)
+    labels = ("β (1/m)", "x_bf (mm)", "y_bf (mm)")
+    scale = (1.0, 1000.0, 1000.0)
+    for name, (t, lam) in sorted(traces.items()):
+        for i, ax in enumerate(axes):
+            ax.plot(t, np.asarray(lam)[:, i] * scale[i], label=name)
+    for ax, label in zip(axes, labels):
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("session time (s): the object's pushes one after another")
+    fig.tight_layout()
+    if path is not None:
+        save_figure_atomic(fig, path, dpi=130)
+    return fig
