@@ -92,7 +92,7 @@ def online_session(pushes: list[Push], shape: Shape, prior: tuple[float, float, 
     online = [whole_push_errors(contour, [p], b, mu) for p, b in zip(pushes, before)]
     prior_err = whole_push_errors(contour, pushes, np.asarray(prior), mu)
     # one-step displacements: each sample predicted with λ_pred before its push
-    smp = samples(pushes, shape, separation_mm, 0.1, 5.0)
+    smp = samples(pushes, shape, separation_mm, stick_ratio=0.1, min_speed_mm_s=5.0)   # validate()'s defaults
     lam_smp = np.stack([before[i] for i in smp.push_index])
     observed = _displacement(smp.next_pose, smp.states)
     pred_online = _displacement(one_step(contour, smp.states, smp.inputs, lam_smp, mu), smp.states)
