@@ -15,6 +15,7 @@ import argparse
 import json
 import platform
 import time
+from collections.abc import Callable
 from functools import partial
 
 import jax
@@ -27,12 +28,30 @@ from dexpush.model import LAMBDA_TRUE, Contour
 from dexpush.mppi import MPPISettings
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def timing_args(doc: str | None) -> argparse.Namespace:
+    """--samples (K), --repeats (timed calls per variant) and --rounds (alternations)."""
+    ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--samples", type=int, default=1024)
     ap.add_argument("--repeats", type=int, default=200)
     ap.add_argument("--rounds", type=int, default=5)
-    args = ap.parse_args()
+    return ap.parse_args()
+
+
+def median_ms_alternating(calls: dict[str, Callable[[], object]], repeats: int, rounds: int) -> dict[str, float]:
+    """Median ms per call of each compiled call, timed in ``rounds`` alternating rounds of
+    ``repeats // rounds`` calls each, so that drift in machine load hits every variant alike."""
+    times: dict[str, list[float]] = {name: [] for name in calls}
+    for _ in range(rounds):
+        for name, call in calls.items():
+            for _ in range(repeats // rounds):
+                t0 = time.perf_counter()
+                jax.block_until_ready(call())
+                times[name].append(time.perf_counter() - t0)
+    return {name: float(np.median(t) * 1e3) for name, t in times.items()}
+
+
+def main() -> None:
+    args = timing_args(__doc__)
     shape = Shape.tee()
     settings = ControllerSettings(mppi=MPPISettings(num_samples=args.samples))
     scene = Scene.make(shape, (0.6, 0.3, 0.0), (), settings.weights)
@@ -45,17 +64,11 @@ def main() -> None:
         state = policy_init(LAMBDA_TRUE, settings, 0)
         jax.block_until_ready(fn(state, x))
         steps[name] = (fn, state)
-    times = {name: [] for name in variants}
-    for _ in range(args.rounds):
-        for name, (fn, state) in steps.items():
-            for _ in range(args.repeats // args.rounds):
-                t0 = time.perf_counter()
-                jax.block_until_ready(fn(state, x))
-                times[name].append(time.perf_counter() - t0)
-    med = {name: float(np.median(t) * 1e3) for name, t in times.items()}
+    med = median_ms_alternating({name: partial(fn, state, x) for name, (fn, state) in steps.items()},
+                                args.repeats, args.rounds)
     ratio = med["with corners"] / med["single contact"]
     print(f"# {platform.machine()}, K = {args.samples}, N_p = {settings.mppi.horizon}, T Task I, "
-          f"median of {len(times['with corners'])} iterations each")
+          f"median of {args.repeats // args.rounds * args.rounds} iterations each")
     print("| model | ms per iteration |")
     print("|---|---|")
     for name, m in med.items():

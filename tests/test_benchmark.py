@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
+import time
 from functools import partial
 from pathlib import Path
 
@@ -11,6 +15,7 @@ import pytest
 
 from dexpush.benchmark import run_benchmark
 from dexpush.cli import main
+from dexpush.controller import ControllerSettings
 from dexpush.records import summarize
 from dexpush.sensing import SensorSettings
 from dexpush.tables import write_tables
@@ -50,6 +55,14 @@ def test_a_folder_refuses_runs_with_other_settings(tmp_path: Path) -> None:
         run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=3, lanes=2, progress=False)
     assert main(["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi",
                  "--seeds", "0", "--max-steps", "9", "--lanes", "2", "--quiet", "--out", str(tmp_path)]) == 2
+    # a folder started before an option existed is adopted with the option at its default (off) only
+    del saved["settings"]["controller"]["stall_after_s"]
+    (tmp_path / "settings.json").write_text(json.dumps(saved))
+    run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
+                  figures=False)
+    with pytest.raises(ValueError, match=r"stall_after_s: None there, 4.0 now"):
+        run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
+                      figures=False, settings=ControllerSettings(stall_after_s=4.0))
 
 
 def test_an_interrupted_run_keeps_every_finished_trials_trajectory(tmp_path: Path, monkeypatch) -> None:
@@ -143,3 +156,31 @@ def test_worker_processes_record_what_one_process_records(tmp_path: Path) -> Non
     timing = {"planning_ms_median", "planning_ms_max"}
     assert [{k: v for k, v in r.items() if k not in timing} for r in one] == \
         [{k: v for k, v in r.items() if k not in timing} for r in two]
+
+
+def test_pool_workers_end_when_the_benchmark_process_is_killed(tmp_path) -> None:
+    """A killed ``dexpush bench`` must not leave workers running on (and writing records)."""
+    script = tmp_path / "parent.py"
+    script.write_text(
+        "import multiprocessing, os, sys, time\n"
+        "from concurrent.futures import ProcessPoolExecutor\n"
+        "from dexpush.benchmark import exit_with_parent\n"
+        "if __name__ == '__main__':\n"
+        "    ex = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context('spawn'),\n"
+        "                             initializer=exit_with_parent, initargs=(os.getpid(), 0.1))\n"
+        "    print(ex.submit(os.getpid).result(), flush=True)\n"
+        "    ex.submit(time.sleep, 60)\n"
+        "    time.sleep(0.5)\n"
+        "    os._exit(0)   # as if killed: no pool shutdown\n")
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, check=True)
+    worker = int(out.stdout.split()[0])
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline:
+        try:   # gone, or a zombie that nobody reaps (its parent is dead)
+            if Path(f"/proc/{worker}/stat").read_text().split(")")[-1].split()[0] in "ZX":
+                return
+        except (FileNotFoundError, ProcessLookupError):
+            return
+        time.sleep(0.1)
+    os.kill(worker, 9)
+    raise AssertionError("the orphaned worker was still running 20 s after its parent died")

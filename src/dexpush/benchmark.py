@@ -21,6 +21,8 @@ import importlib.metadata
 import json
 import os
 import sys
+import threading
+import time
 from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
@@ -39,7 +41,7 @@ from dexpush.sensing import SensorSettings
 from dexpush.simulate import TrialResult, TrialSpec, simulate
 from dexpush.tasks import MAX_STEPS, Task, get_task
 
-__all__ = ["BENCH_LANES", "folder_records", "run_benchmark", "run_settings"]
+__all__ = ["BENCH_LANES", "exit_with_parent", "folder_records", "run_benchmark", "run_settings"]
 
 BENCH_LANES = 32   #: trials the benchmark advances together (one compiled program for every run)
 
@@ -106,7 +108,8 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
         saved = os.environ.get("NPROC")
         os.environ["NPROC"] = "1"
         try:
-            with ProcessPoolExecutor(min(workers, len(groups)), mp_context=multiprocessing.get_context("spawn")) as ex:
+            with ProcessPoolExecutor(min(workers, len(groups)), mp_context=multiprocessing.get_context("spawn"),
+                                     initializer=exit_with_parent, initargs=(os.getpid(),)) as ex:
                 futures = [ex.submit(_run_group, out, t, sh, **common, position=i % workers)
                            for i, (t, sh) in enumerate(groups)]
                 for f in futures:
@@ -120,6 +123,22 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
              for m in _methods_for(get_task(t), methods)]
     records = {name: _load_condition(out / "conditions" / f"{name}.json") for name in order}
     return [records[name][s] for name in order for s in seeds]
+
+
+def exit_with_parent(parent: int, poll_s: float = 1.0) -> None:
+    """Worker-pool initializer: end this worker once the process that started it is gone.
+
+    Ctrl-C reaches the whole process group, but a benchmark process that is killed (``kill
+    PID``) leaves its spawned workers orphaned, and they would run on for up to an hour,
+    writing records made with whatever code they imported into the folder. A daemon thread
+    polls the parent's pid and exits the worker when it changes.
+    """
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(poll_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="exit-with-parent").start()
 
 
 def folder_records(out: str | os.PathLike) -> list[dict]:
@@ -136,6 +155,19 @@ def run_settings(plant: str, sensor: SensorSettings | None, settings: Controller
     return json.loads(json.dumps({"plant": plant, "sensor": asdict(sensor) if sensor else "exact",
                                   "controller": asdict(settings or ControllerSettings()), "max_steps": int(max_steps),
                                   "lanes": int(lanes)}))
+
+
+def _with_defaults(saved: object, defaults: dict) -> object:
+    """``saved`` with the keys it lacks filled in from ``defaults`` (recursively, dicts only)."""
+    if not isinstance(saved, dict):
+        return saved
+    out = dict(saved)
+    for k, v in defaults.items():
+        if k not in out:
+            out[k] = v
+        elif isinstance(v, dict):
+            out[k] = _with_defaults(out[k], v)
+    return out
 
 
 def _differences(a: object, b: object, prefix: str = "") -> list[str]:
@@ -156,7 +188,10 @@ def _claim_folder(out: Path, wanted: dict, progress: bool) -> None:
         version = "unknown"
     if path.exists():
         saved = json.loads(path.read_text())
-        diff = _differences(saved.get("settings"), wanted)
+        # a setting added after the folder was started is taken at its default: new options are
+        # off by default, so the default reproduces what the folder's records were made with
+        defaults = run_settings(wanted["plant"], None, None, wanted["max_steps"], wanted["lanes"])["controller"]
+        diff = _differences(_with_defaults(saved.get("settings"), {"controller": defaults}), wanted)
         if diff:
             raise ValueError(f"{out} holds results made with other settings ({'; '.join(diff[:3])}"
                              f"{'; …' if len(diff) > 3 else ''}); choose another --out, or delete it to start over")

@@ -284,6 +284,8 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
     import platform
 
     from dexpush.benchmark import folder_records, run_benchmark
+    from dexpush.controller import ControllerSettings
+    from dexpush.cost import CostWeights
     from dexpush.tables import write_tables
     from dexpush.tasks import get_task
 
@@ -299,15 +301,20 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
         if args.plant not in ("physics", "physics-random"):
             raise ValueError("--randomize randomises the physics plant's world: use it with --plant physics")
         args.plant = "physics-random"
+    settings, options = None, ""
+    if args.detour or args.stall_after is not None:
+        settings = ControllerSettings(weights=CostWeights(detour=args.detour), stall_after_s=args.stall_after)
+        options = (" --detour" if args.detour else "") + (
+            f" --stall-after {args.stall_after:g}" if args.stall_after is not None else "")
     t0 = time.perf_counter()
     records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
                             lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures,
-                            workers=args.workers, plant=args.plant, sensor=_sensor(args))
+                            workers=args.workers, plant=args.plant, sensor=_sensor(args), settings=settings)
     wall = time.perf_counter() - t0
     seed_text = f"--seeds {args.seeds_text}" if args.seeds is not None else f"--trials {args.trials}"
     meta = {"command": f"dexpush bench --tasks {args.tasks} --shapes {args.shapes} --params {args.params} "
                        f"--methods {args.methods} {seed_text} --lanes {args.lanes} --plant {args.plant}"
-                       f"{_sensor_text(args)} --workers {args.workers} --out {args.out}",
+                       f"{_sensor_text(args)}{options} --workers {args.workers} --out {args.out}",
             "date": datetime.date.today().isoformat(),
             "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.python_implementation()} "
                        f"{platform.python_version()}",
@@ -447,6 +454,12 @@ def build_parser() -> argparse.ArgumentParser:
     sensor_args(bench)
     bench.add_argument("--max-steps", type=_positive_int, default=MAX_STEPS,
                        help=f"control steps before a trial fails (default {MAX_STEPS})")
+    bench.add_argument("--detour", action="store_true",
+                       help="measure the goal distance round the obstacles (CostWeights.detour; "
+                            "docs/controller.md#going-round-obstacles-detour)")
+    bench.add_argument("--stall-after", type=float, default=None, metavar="SECONDS",
+                       help="restart the planner after this long without progress and contact "
+                            "(ControllerSettings.stall_after_s; docs/controller.md#stalls; default: never)")
     bench.add_argument("--out", default="out/bench", help="output folder; re-running resumes (default out/bench)")
     bench.add_argument("--quiet", action="store_true", help="no progress output")
     bench.set_defaults(func=_cmd_bench)

@@ -28,16 +28,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.checks import check_params, check_positive, checked_seed, checked_vector
-from dexpush.cost import CostWeights, Scene, obstacle_array, running_cost, terminal_cost
+from dexpush.checks import check_nonnegative, check_params, check_positive, checked_seed, checked_vector
+from dexpush.cost import CostWeights, Scene, goal_distance_sq, obstacle_array, running_cost, terminal_cost
 from dexpush.estimator import EstimatorState, UKFSettings, estimator_init, estimator_observe, rate_limited
 from dexpush.geometry import Shape
 from dexpush.interfaces import Observation
-from dexpush.model import LAMBDA_TRUE, Contour, integrate, step
-from dexpush.mppi import MPPIResult, MPPISettings, mppi_iteration, shift_in_time
+from dexpush.model import LAMBDA_TRUE, Contour, contact_gap, integrate, step
+from dexpush.mppi import MPPIResult, MPPISettings, mppi_iteration, shift_in_time, slot_durations
 
 __all__ = ["ControllerSettings", "ControllerState", "PushingController", "estimate_step", "plan_step", "policy_init",
-           "policy_step"]
+           "policy_step", "watch_progress"]
 
 
 @dataclass(frozen=True)
@@ -50,6 +50,18 @@ class ControllerSettings:
     estimate_params: bool = False #: run the UKF (paper Fig. 5) and plan with its estimate
     ukf: UKFSettings = field(default_factory=UKFSettings)
     ukf_substeps: int = 10        #: Euler substeps per period in the UKF's window replay
+    #: restart the planner (zero warm start) when the goal distance d (eq. 9b) has not improved by
+    #: ``stall_progress_m`` for this long (s) out of contact; None (default) never does.
+    #: See docs/controller.md#stalls.
+    stall_after_s: float | None = None
+    stall_progress_m: float = 0.005  #: the improvement of d (m) that counts as progress
+    #: the stall clock runs only while the pusher is farther than this (m) from the contour ...
+    stall_contact_gap_m: float = 0.005
+    #: ... and the object farther than this goal distance d (m): the final approach is slow by nature
+    stall_min_distance_m: float = 0.015
+    #: after a stall the planner looks this many times further ahead (every slot Δt_k stretched),
+    #: until the object comes closer again
+    stall_horizon_scale: float = 2.0
 
     def __post_init__(self) -> None:
         for name, kind in (("mppi", MPPISettings), ("weights", CostWeights), ("ukf", UKFSettings)):
@@ -60,6 +72,13 @@ class ControllerSettings:
             raise ValueError(f"estimate_params must be True or False, got {self.estimate_params!r}")
         if int(self.ukf_substeps) != self.ukf_substeps or self.ukf_substeps < 1:
             raise ValueError(f"ukf_substeps must be a whole number >= 1, got {self.ukf_substeps!r}")
+        if self.stall_after_s is not None:
+            check_positive("stall_after_s", self.stall_after_s, "s, or None")
+        for name in ("stall_progress_m", "stall_contact_gap_m"):
+            check_positive(name, getattr(self, name), "m")
+        check_nonnegative("stall_min_distance_m", self.stall_min_distance_m, "m")
+        if not self.stall_horizon_scale >= 1.0:
+            raise ValueError(f"stall_horizon_scale must be >= 1, got {self.stall_horizon_scale!r}")
 
 
 class ControllerState(NamedTuple):
@@ -70,6 +89,10 @@ class ControllerState(NamedTuple):
     params: jnp.ndarray          #: (3,) λ_pred the next iteration plans with
     estimator: EstimatorState    #: the UKF's λ estimate and observation window
     mu: jnp.ndarray              #: μ_c the model assumes (the estimate, with ``UKFSettings.estimate_mu``)
+    best: jnp.ndarray            #: the smallest goal distance d (m) planned from so far, less progress since
+    idle: jnp.ndarray            #: time (s) since d last improved by ``stall_progress_m``
+    stalls: jnp.ndarray          #: planner restarts after a stall (``ControllerSettings.stall_after_s``)
+    stretch: jnp.ndarray         #: the horizon's current scale: 1, or ``stall_horizon_scale`` after a stall
 
 
 def policy_init(params: object, settings: ControllerSettings, seed: int | jnp.ndarray,
@@ -79,7 +102,8 @@ def policy_init(params: object, settings: ControllerSettings, seed: int | jnp.nd
     (:func:`dexpush.estimator.estimator_init`)."""
     lam = jnp.asarray(params, jnp.float32)
     return ControllerState(jnp.zeros((settings.mppi.horizon, 2), jnp.float32), jax.random.PRNGKey(seed), lam,
-                           estimator_init(lam, settings.ukf, box, settings.mu), jnp.float32(settings.mu))
+                           estimator_init(lam, settings.ukf, box, settings.mu), jnp.float32(settings.mu),
+                           jnp.float32(jnp.inf), jnp.float32(0.0), jnp.int32(0), jnp.float32(1.0))
 
 
 def estimate_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray | bool, *,
@@ -108,26 +132,58 @@ def estimate_step(state: ControllerState, observation: jnp.ndarray, estimate: jn
     return state._replace(estimator=est, params=lam, mu=mu)
 
 
+def watch_progress(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene: Scene,
+                   settings: ControllerSettings) -> tuple[ControllerState, jnp.ndarray]:
+    """Stall detection, once per control period: (state, whether to restart the planner now).
+
+    A stall is no progress toward the goal and no contact for a while (issue 15).
+    d = √d²(q_sb, q_g) (eq. 9b, round the obstacles) is compared with the best d so far:
+    an improvement of at least ``stall_progress_m`` restarts the clock ``idle``, which
+    otherwise runs while the pusher is more than ``stall_contact_gap_m`` off the contour
+    and d is above ``stall_min_distance_m`` (the final approach to the 8-mm tolerance is
+    slow by nature). When ``idle`` reaches ``stall_after_s`` (the pusher has hovered
+    beside the object that long), the planner restarts from a zero warm start with its
+    horizon stretched ``stall_horizon_scale`` times (:func:`dexpush.mppi.slot_durations`:
+    a push that needs a long walk round the object first comes into view), and the clock
+    restarts. The next progress brings the horizon back to the paper's. Pure and jit-able.
+    """
+    if settings.stall_after_s is None:
+        return state, jnp.bool_(False)
+    T = settings.mppi.control_period
+    d = jnp.sqrt(goal_distance_sq(x, scene, settings.weights.c))
+    improved = d <= state.best - settings.stall_progress_m
+    away = (contact_gap(contour, x) > settings.stall_contact_gap_m) & (d > settings.stall_min_distance_m)
+    idle = jnp.where(improved, 0.0, state.idle + jnp.where(away, T, 0.0))
+    stalled = idle >= settings.stall_after_s - 0.5 * T    # (float32 sums of T)
+    stretch = jnp.where(stalled, jnp.float32(settings.stall_horizon_scale), jnp.where(improved, 1.0, state.stretch))
+    return state._replace(best=jnp.where(improved, d, state.best), idle=jnp.where(stalled, 0.0, idle),
+                          stalls=state.stalls + stalled.astype(jnp.int32), stretch=stretch), stalled
+
+
 def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene: Scene,
               settings: ControllerSettings) -> tuple[ControllerState, jnp.ndarray, MPPIResult]:
     """One MPPI iteration (eq. 9–10) from state ``x`` with λ_pred. Pure and jit-able.
 
     The command is the first input of the new sequence, clipped to ±v_max/√2 (zero, and a
     reset sequence, should it ever be non-finite); the sequence is shifted by the control
-    period as the next warm start.
+    period as the next warm start. A stall (:func:`watch_progress`) zeroes the warm start first.
     """
     mp = settings.mppi
     x = jnp.asarray(x, jnp.float32)
+    stretch = 1.0                       # without the watch the slots stay constants of the program
+    if settings.stall_after_s is not None:
+        state, stalled = watch_progress(state, x, contour=contour, scene=scene, settings=settings)
+        state, stretch = state._replace(sequence=jnp.where(stalled, 0.0, state.sequence)), state.stretch
     key, sub = jax.random.split(state.key)
     weights, mu = settings.weights, state.mu
     result = mppi_iteration(
         sub, state.sequence, tuple(x[i] for i in range(5)), state.params, scene,   # rollouts carry a tuple
         dynamics=lambda xs, u, dt, p: step(contour, xs, u, dt, p, mu),
         running_cost=lambda xs, sc: running_cost(xs, sc, weights),
-        terminal_cost=lambda xs, sc: terminal_cost(xs, sc, weights), settings=mp)
+        terminal_cost=lambda xs, sc: terminal_cost(xs, sc, weights), settings=mp, horizon_scale=stretch)
     finite = jnp.all(jnp.isfinite(result.sequence))
     u = jnp.where(finite, jnp.clip(result.sequence[0], -mp.v_clip, mp.v_clip), 0.0)
-    durations = jnp.asarray(mp.step_durations(), jnp.float32)
+    durations = slot_durations(mp, stretch)
     shifted = jnp.where(finite, shift_in_time(result.sequence, durations, mp.control_period), 0.0)
     return state._replace(sequence=shifted, key=key), u, result
 
@@ -228,6 +284,11 @@ class PushingController:
     def gated_windows(self) -> int:
         """Of those, windows the innovation gate down-weighted (NIS/m above ``UKFSettings.nis_gate``)."""
         return int(self.state.estimator.gated)
+
+    @property
+    def stall_resets(self) -> int:
+        """Planner restarts after a stall since :meth:`reset` (``ControllerSettings.stall_after_s``)."""
+        return int(self.state.stalls)
 
     @property
     def estimator_resets(self) -> int:

@@ -26,7 +26,8 @@ from dexpush.checks import check_nonnegative, check_positive
 from dexpush.geometry import Shape
 from dexpush.model import State, components
 
-__all__ = ["CostWeights", "Scene", "collides", "decoupled_distance_sq", "running_cost", "terminal_cost"]
+__all__ = ["CostWeights", "Scene", "collides", "decoupled_distance_sq", "detour_length_sq", "goal_distance_sq",
+           "running_cost", "terminal_cost"]
 
 
 @dataclass(frozen=True)
@@ -46,6 +47,10 @@ class CostWeights:
     #: cost (9e) uses discs grown by it, so a prediction error of up to this much at the obstacle does
     #: not become a touch. A trial still fails only on a real touch (radius as given).
     obstacle_margin_m: float = 0.01
+    #: measure the goal distance of d² round the obstacles (:func:`detour_length_sq`) instead of
+    #: straight through them; False (default) is the paper's eq. (9) as written.
+    #: See docs/controller.md#going-round-obstacles-detour.
+    detour: bool = False
 
     def __post_init__(self) -> None:
         for name in ("q_f", "q_r1", "q_r2", "c"):
@@ -70,6 +75,9 @@ class Scene:
     edge_b: jnp.ndarray          #: (E, 2) footprint edge ends in {B}
     r_s: jnp.ndarray             #: the effective free-roaming radius of the pusher (m)
     pusher_radius: float
+    #: (M,) radius ρ_m (m) of the disc around obstacle m that the goal distance detours round
+    #: (:func:`detour_length_sq`); empty without ``CostWeights.detour``
+    detour_radius: jnp.ndarray = None  # type: ignore[assignment]
 
     @staticmethod
     def make(shape: Shape, goal: object, obstacles: object = (), weights: CostWeights | None = None) -> Scene:
@@ -89,12 +97,19 @@ class Scene:
         obs = obstacle_array(obstacles)
         a, b = shape.edges
         r_s = w.r_s if w.r_s_clearance is None else max(w.r_s, shape.bounding_radius + w.r_s_clearance)
+        rho = np.zeros(0)
+        if w.detour and len(obs):
+            # no orientation of the footprint reaches an obstacle while the reference stays this far
+            # from it; capped at the goal's distance, so that the goal itself is never inside a detour disc
+            reach = float(np.max(np.hypot(a[:, 0], a[:, 1])))
+            rho = np.minimum(obs[:, 2] + w.obstacle_margin_m + reach, np.hypot(*(g[None, :2] - obs[:, :2]).T))
         return Scene(jnp.asarray(g), jnp.asarray(obs), jnp.asarray(a), jnp.asarray(b), jnp.asarray(r_s),
-                     shape.pusher_radius)
+                     shape.pusher_radius, jnp.asarray(rho))
 
 
 jax.tree_util.register_dataclass(
-    Scene, data_fields=["goal", "obstacles", "edge_a", "edge_b", "r_s"], meta_fields=["pusher_radius"])
+    Scene, data_fields=["goal", "obstacles", "edge_a", "edge_b", "r_s", "detour_radius"],
+    meta_fields=["pusher_radius"])
 
 
 def obstacle_array(obstacles: object) -> np.ndarray:
@@ -120,6 +135,48 @@ def _distance_sq(x: jnp.ndarray, y: jnp.ndarray, th: jnp.ndarray, goal: jnp.ndar
 def decoupled_distance_sq(q: jnp.ndarray, goal: jnp.ndarray, c: float) -> jnp.ndarray:
     """d² = ‖Δp‖² + c·(1 − cos Δθ) for poses q (..., 3) against a goal (3,)."""
     return _distance_sq(q[..., 0], q[..., 1], q[..., 2], goal, c)
+
+
+def detour_length_sq(x: jnp.ndarray, y: jnp.ndarray, scene: Scene) -> jnp.ndarray:
+    """ℓ², the squared length of the shortest path from the reference (x, y) to the goal that
+    goes round every detour disc (centre o_m, radius ρ_m = ``scene.detour_radius``); ‖Δp‖²
+    where no disc is in the way.
+
+    For one disc, with a = p − o, b = g − o, tangent lengths t_a = √(|a|² − ρ²),
+    t_b = √(|b|² − ρ²), tangent angles α = atan2(t_a, ρ), β = atan2(t_b, ρ) and
+    γ = ∠(a, b) ∈ [0, π]:
+
+        ℓ = |p − g|                          if γ ≤ α + β   (the segment misses the disc)
+        ℓ = t_a + t_b + ρ·(γ − α − β)        otherwise      (tangent, arc, tangent)
+
+    A reference inside a disc is first moved radially onto its rim, which adds ρ − |a|.
+    ℓ is continuous in p, and a path that follows it never brings the footprint within
+    ``CostWeights.obstacle_margin_m`` of the obstacle (ρ_m ≥ r_m + margin + the footprint's
+    reach), so it has no minimum but the goal where d² through the obstacle has one
+    behind it. With several discs, ℓ is the largest of the one-disc lengths (exact when
+    one disc is in the way).
+    """
+    gx, gy = scene.goal[0], scene.goal[1]
+    dx, dy = x - gx, y - gy
+    best = dx * dx + dy * dy
+    for m in range(scene.detour_radius.shape[0]):
+        ox, oy, rho = scene.obstacles[m, 0], scene.obstacles[m, 1], scene.detour_radius[m]
+        ax, ay, bx, by = x - ox, y - oy, gx - ox, gy - oy
+        ra2 = ax * ax + ay * ay
+        ra = jnp.sqrt(jnp.maximum(ra2, 1e-12))
+        out = jnp.maximum(ra, rho)                                  # on or outside the rim
+        px, py = ox + ax * (out / ra), oy + ay * (out / ra)         # p moved onto the rim if inside
+        t_a = jnp.sqrt(jnp.maximum(out * out - rho * rho, 0.0))
+        t_b = jnp.sqrt(jnp.maximum(bx * bx + by * by - rho * rho, 0.0))
+        gamma = jnp.abs(fastmath.atan2(ax * by - ay * bx, ax * bx + ay * by))
+        wrap = gamma - fastmath.atan2(t_a, rho) - fastmath.atan2(t_b, rho)
+        ex, ey = px - gx, py - gy
+        straight = ex * ex + ey * ey
+        around = t_a + t_b + rho * jnp.maximum(wrap, 0.0)
+        inside = out - ra
+        ell = jnp.where(wrap > 0, around, jnp.sqrt(straight)) + inside
+        best = jnp.maximum(best, ell * ell)
+    return best
 
 
 def collides(x: State, scene: Scene, margin: float = 0.0) -> jnp.ndarray:
@@ -161,10 +218,23 @@ def collides(x: State, scene: Scene, margin: float = 0.0) -> jnp.ndarray:
     return hit
 
 
+def goal_distance_sq(x: State, scene: Scene, c: float) -> jnp.ndarray:
+    """d²(q_sb, q_g) of eq. (9b–9c) for states x: the decoupled distance, whose position part is
+    ℓ² (:func:`detour_length_sq`) when the scene has detour discs."""
+    xb, yb, th, *_ = components(x)
+    return _goal_distance_sq(xb, yb, th, scene, c)
+
+
+def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: Scene, c: float) -> jnp.ndarray:
+    if scene.detour_radius is None or scene.detour_radius.shape[0] == 0:
+        return _distance_sq(xb, yb, th, scene.goal, c)
+    return detour_length_sq(xb, yb, scene) + c * (1.0 - fastmath.cos(th - scene.goal[2]))
+
+
 def running_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
     """l(x) + P(x) of eq. (9c–9e) for states x ((..., 5) array or 5-tuple)."""
     xb, yb, th, xc, yc = components(x)
-    d2 = _distance_sq(xb, yb, th, scene.goal, w.c)
+    d2 = _goal_distance_sq(xb, yb, th, scene, w.c)
     gap = jnp.sqrt((xc - xb) ** 2 + (yc - yb) ** 2)
     cost = w.q_r1 * d2 + w.q_r2 * jnp.maximum(gap - scene.r_s, 0.0)
     return cost + jnp.where(collides(x, scene, w.obstacle_margin_m), w.C_pen, 0.0)
@@ -173,4 +243,4 @@ def running_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
 def terminal_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
     """φ(x_T) of eq. (9b)."""
     xb, yb, th, *_ = components(x)
-    return w.q_f * _distance_sq(xb, yb, th, scene.goal, w.c)
+    return w.q_f * _goal_distance_sq(xb, yb, th, scene, w.c)

@@ -54,7 +54,7 @@ import numpy as np
 from dexpush import noise
 from dexpush.checks import check_nonnegative, check_positive
 
-__all__ = ["MPPIResult", "MPPISettings", "mppi_iteration", "shift_in_time"]
+__all__ = ["MPPIResult", "MPPISettings", "mppi_iteration", "shift_in_time", "slot_durations"]
 
 Dynamics = Callable[[jnp.ndarray, jnp.ndarray, jnp.ndarray, Any], jnp.ndarray]
 Cost = Callable[[jnp.ndarray, Any], jnp.ndarray]
@@ -122,6 +122,18 @@ def _median(S: jnp.ndarray) -> jnp.ndarray:
     return part[m] if n % 2 else 0.5 * (jnp.max(part[:m]) + part[m])
 
 
+def slot_durations(settings: MPPISettings, horizon_scale: jnp.ndarray | float = 1.0,
+                   dtype: Any = jnp.float32) -> jnp.ndarray:
+    """The prediction slots Δt_k (N_p,) with every slot after the first stretched by ``horizon_scale``
+    (a traced value: changing it does not recompile). Δt₀ stays the control period the first
+    input is held for."""
+    base = settings.step_durations()
+    if isinstance(horizon_scale, int | float):          # a constant: the program sees constant slots
+        return jnp.asarray(base * np.where(np.arange(settings.horizon) == 0, 1.0, horizon_scale), dtype=dtype)
+    return jnp.asarray(base, dtype) * jnp.where(jnp.arange(settings.horizon) == 0, 1.0,
+                                                 jnp.asarray(horizon_scale, dtype))
+
+
 def shift_in_time(U: jnp.ndarray, durations: jnp.ndarray, shift: float) -> jnp.ndarray:
     """Warm start: the sequence U (N, 2) on slots ``durations`` (N,), shifted by ``shift`` seconds.
 
@@ -137,14 +149,15 @@ def shift_in_time(U: jnp.ndarray, durations: jnp.ndarray, shift: float) -> jnp.n
 
 def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any, context: Any, *,
                    dynamics: Dynamics, running_cost: Cost, terminal_cost: Cost,
-                   settings: MPPISettings) -> MPPIResult:
+                   settings: MPPISettings, horizon_scale: jnp.ndarray | float = 1.0) -> MPPIResult:
     """One MPPI update of the nominal sequence U (N_p, 2) from state x0. Pure and jit-able.
 
     ``x0`` is any pytree of arrays (one state); each leaf gets a leading sample axis K.
+    ``horizon_scale`` stretches the slots after the first (:func:`slot_durations`).
     """
     K, N = settings.num_samples, settings.horizon
     dtype = U.dtype
-    dts = jnp.asarray(settings.step_durations(), dtype=dtype)
+    dts = slot_durations(settings, horizon_scale, dtype)
     n_refine = round(settings.refine_fraction * K)
     # draw only what is used: white noise for the refining rows, knots for the exploring ones,
     # from two ranges of one key's stream

@@ -62,6 +62,7 @@ class EpisodeRecord:
     estimator_resets: int | None = None   #: times the λ estimator was reset to its prior (non-finite state)
     estimator_updates: int | None = None  #: informative windows that updated the λ estimate
     gated_windows: int | None = None      #: of those, windows the innovation gate down-weighted
+    stall_resets: int | None = None       #: MPPI: planner restarts after a stall (docs/controller.md#stalls)
 
 
 @dataclass
@@ -123,6 +124,7 @@ def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method:
         lanes=int(lanes), plant=plant, sensor=sensor_label(sensor),
         offline_plan_s=round(float(result.plan_s[0]), 3) if result.plan_s else None,
         replans=len(result.plan_s) - 1 if result.plan_s else None,
+        stall_resets=result.stall_resets,
         **{name: getattr(result, name) if method == "mppi-ukf" else None for name in ESTIMATOR_COUNTERS})
     return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(task.goal),
                    np.asarray(task.obstacles).reshape(-1, 3))
@@ -139,6 +141,7 @@ def summarize(trials: list[dict]) -> dict:
     plan = np.array([t["planning_ms_median"] for t in trials], float)
     offline = np.array([t["offline_plan_s"] for t in trials if t.get("offline_plan_s") is not None], float)
     replans = np.array([t["replans"] for t in trials if t.get("replans") is not None], float)
+    stalls = np.array([t["stall_resets"] for t in trials if t.get("stall_resets") is not None], float)
     return {"trials": len(trials), "successes": len(ok),
             "success_rate": round(len(ok) / len(trials), 4) if trials else None,
             "object_path_m": mean_std("object_path_m"), "pusher_path_m": mean_std("pusher_path_m"),
@@ -147,4 +150,5 @@ def summarize(trials: list[dict]) -> dict:
             "planning_ms_max": round(float(max(t["planning_ms_max"] for t in trials)), 3) if trials else None,
             "offline_plan_s": [round(float(np.median(offline)), 3), round(float(offline.max()), 3)]
             if len(offline) else None,
-            "replans_mean": round(float(replans.mean()), 2) if len(replans) else None}
+            "replans_mean": round(float(replans.mean()), 2) if len(replans) else None,
+            "stall_resets_mean": round(float(stalls.mean()), 2) if len(stalls) else None}

@@ -95,7 +95,8 @@ def run_loop(plant: Plant, controller: Controller, task: Task, shape: Shape, obj
     return TrialResult(spec or TrialSpec(0), success, np.asarray(states), np.asarray(commands).reshape(-1, 2),
                        np.asarray(lam).reshape(-1, 3), np.asarray(ms),
                        tuple(getattr(controller, "planning_s", ())),
-                       *(getattr(controller, name, None) for name in ESTIMATOR_COUNTERS))
+                       *(getattr(controller, name, None) for name in ESTIMATOR_COUNTERS),
+                       stall_resets=getattr(controller, "stall_resets", None))
 
 
 def plant_name(plant: str | Plant) -> str:

@@ -76,6 +76,7 @@ class TrialResult:
     estimator_resets: int | None = None   #: times the estimator was reset to its prior after turning non-finite
     estimator_updates: int | None = None  #: informative windows that updated the estimate
     gated_windows: int | None = None      #: of those, windows the innovation gate down-weighted
+    stall_resets: int | None = None       #: planner restarts after a stall (MPPI controllers)
 
     @property
     def steps(self) -> int:
@@ -184,7 +185,7 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
     args = (contour, scene, jnp.asarray(true_params, jnp.float32), jnp.float32(plant_mu))
     bar = tqdm(total=len(trials), desc=desc, unit="trial", disable=not progress, leave=False)
 
-    def finish(i: int, lane_success: bool, counts: tuple[int, ...] = (0, 0, 0, 0)) -> None:
+    def finish(i: int, lane_success: bool, counts: tuple[int, ...] = (0, 0, 0, 0, 0)) -> None:
         log = logs.pop(i)
         def cat(parts: list[np.ndarray], width: int) -> np.ndarray:
             return np.concatenate(parts).reshape(-1, width) if parts else np.zeros((0, width))
@@ -192,7 +193,7 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
         res = TrialResult(trials[i], lane_success, np.concatenate([log["x0"], *log["x"]]), cat(log["u"], 2),
                           cat(log["lam"], 3), np.concatenate(log["ms"]) if log["ms"] else np.zeros(0),
                           rejected_frames=counts[0], estimator_resets=counts[1], estimator_updates=counts[2],
-                          gated_windows=counts[3])
+                          gated_windows=counts[3], stall_resets=counts[4])
         results[i] = res
         if on_result is not None:
             on_result(res)
@@ -223,7 +224,8 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
         xs, us, lams, active = (np.asarray(a) for a in (xs, us, lams, active))
         done, success = np.asarray(batch.done), np.asarray(batch.success)
         est = batch.policy.estimator
-        counters = np.stack([np.asarray(c) for c in (est.rejected, est.resets, est.updates, est.gated)], -1)
+        counters = np.stack([np.asarray(c) for c in (est.rejected, est.resets, est.updates, est.gated,
+                                                     batch.policy.stalls)], -1)
         # each lane's share of the step's wall time: a trial pays for its own lane, not for idle ones
         ms = (time.perf_counter() - t0) * 1e3 / (n_lanes * chunk)
         # touching an obstacle ends a trial as a failure (conventions.md#benchmark-tasks); checked on the logged

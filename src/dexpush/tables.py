@@ -36,15 +36,17 @@ def write_tables(out: str | os.PathLike, records: list[dict], meta: dict) -> dic
     lines = [f"Produced by `{meta.get('command', '')}` on {meta.get('date', '')} ({meta.get('machine', '')})."
              + (f" {meta['note']}." if meta.get("note") else ""), "",
              "| task | shape | params | method | SR | object TL (m) | pusher TL (m) | time to goal (s) "
-             "| planning ms per step (median / max) | offline plan s (median / max) | replans (mean) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| planning ms per step (median / max) | offline plan s (median / max) | replans (mean) "
+             "| stall restarts (mean) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary:
         lines.append(f"| {s['task']} | {s['shape']} | {s['params']} | {s['method']} | "
                      f"{s['successes']}/{s['trials']} ({100 * s['success_rate']:.0f} %) | {fmt(s['object_path_m'])} | "
                      f"{fmt(s['pusher_path_m'])} | {fmt(s['time_to_goal_s'])} | "
                      f"{s['planning_ms_median']:.1f} / {s['planning_ms_max']:.0f} | "
                      + (f"{s['offline_plan_s'][0]:.1f} / {s['offline_plan_s'][1]:.1f} | {s['replans_mean']:.1f} |"
-                        if s["offline_plan_s"] else "– | – |"))
+                        if s["offline_plan_s"] else "– | – |")
+                     + (f" {s['stall_resets_mean']:.1f} |" if s.get("stall_resets_mean") is not None else " – |"))
     with atomic_path(files["markdown"]) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
     return files

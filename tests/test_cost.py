@@ -1,0 +1,128 @@
+"""The cost's goal distance around obstacles (``detour_length_sq``) against a plain reference."""
+
+from __future__ import annotations
+
+import heapq
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from dexpush import Shape
+from dexpush.cost import CostWeights, Scene, detour_length_sq, running_cost, terminal_cost
+
+
+def _segment_clear(p: np.ndarray, q: np.ndarray, o: np.ndarray, rho: float) -> bool:
+    """Whether segment pq keeps out of the open disc (o, rho), up to a chord's sag."""
+    d = q - p
+    t = np.clip(np.dot(o - p, d) / max(np.dot(d, d), 1e-300), 0.0, 1.0)
+    return bool(np.linalg.norm(p + t * d - o) >= rho * (1.0 - 1e-5))
+
+
+def shortest_path_around_disc(p: np.ndarray, g: np.ndarray, o: np.ndarray, rho: float, n: int = 1500) -> float:
+    """Shortest p → g path that stays out of a disc: Dijkstra over a visibility graph of p, g
+    and n points on the rim (a plain, independent float64 reference; p and g outside)."""
+    ang = 2 * np.pi * np.arange(n) / n
+    nodes = [p, g, *(o + rho * np.stack([np.cos(ang), np.sin(ang)], 1))]
+    edges: dict[int, list[tuple[int, float]]] = {i: [] for i in range(len(nodes))}
+    for i in range(2, len(nodes)):                      # neighbours along the rim
+        j = 2 + (i - 2 + 1) % n
+        w = float(np.linalg.norm(nodes[i] - nodes[j]))
+        edges[i].append((j, w))
+        edges[j].append((i, w))
+    for i in (0, 1):                                    # p and g see some rim points, and maybe each other
+        for j in range(len(nodes)):
+            if j != i and _segment_clear(nodes[i], nodes[j], o, rho):
+                w = float(np.linalg.norm(nodes[i] - nodes[j]))
+                edges[i].append((j, w))
+                edges[j].append((i, w))
+    dist = {0: 0.0}
+    heap = [(0.0, 0)]
+    while heap:
+        d, i = heapq.heappop(heap)
+        if i == 1:
+            return d
+        if d > dist.get(i, np.inf):
+            continue
+        for j, w in edges[i]:
+            if d + w < dist.get(j, np.inf):
+                dist[j] = d + w
+                heapq.heappush(heap, (d + w, j))
+    raise AssertionError("no path")
+
+
+DETOUR = CostWeights(detour=True)
+
+
+def _scene(goal: tuple[float, float], disc: tuple[float, float, float], rho: float) -> Scene:
+    base = Scene.make(Shape.rectangle(), (*goal, 0.0), (disc,), DETOUR)
+    return base.__class__(base.goal, base.obstacles, base.edge_a, base.edge_b, base.r_s, base.pusher_radius,
+                          jnp.asarray([rho]))
+
+
+@given(st.floats(-0.6, 0.6), st.floats(-0.6, 0.6), st.floats(-0.6, 0.6), st.floats(-0.6, 0.6),
+       st.floats(0.05, 0.25))
+def test_detour_length_matches_a_visibility_graph_reference(px: float, py: float, gx: float, gy: float,
+                                                            rho: float) -> None:
+    o = np.array([0.05, -0.02])
+    p, g = np.array([px, py]), np.array([gx, gy])
+    if min(np.linalg.norm(p - o), np.linalg.norm(g - o)) < rho * 1.01:
+        return                                          # the reference needs both ends outside the disc
+    with jax.enable_x64(True):
+        scene = _scene((gx, gy), (o[0], o[1], 0.02), rho)
+        got = float(np.sqrt(detour_length_sq(jnp.float64(px), jnp.float64(py), scene)))
+    want = shortest_path_around_disc(p, g, o, rho)
+    assert got == pytest.approx(want, abs=2e-4)
+    assert got >= np.linalg.norm(p - g) - 1e-9          # never shorter than the straight line
+
+
+def test_detour_length_is_continuous_and_the_straight_distance_where_nothing_is_in_the_way() -> None:
+    scene = Scene.make(Shape.tee(), (0.6, 0.0, 0.0), ((0.30, 0.0, 0.05),), DETOUR)
+    rho = float(scene.detour_radius[0])
+    xs = np.linspace(-0.2, 0.8, 301, dtype=np.float32)
+    X, Y = np.meshgrid(xs, xs - 0.5)
+    L = np.sqrt(np.asarray(detour_length_sq(jnp.asarray(X), jnp.asarray(Y), scene)))
+    straight = np.hypot(X - 0.6, Y)
+    outside = np.hypot(X - 0.3, Y) > rho + 0.01
+    # ℓ is 1-Lipschitz outside the disc (a shortest-path length); one grid step moves it by ≤ the step
+    step = float(xs[1] - xs[0])
+    both = outside[:, 1:] & outside[:, :-1]
+    assert np.abs(np.diff(L, axis=1))[both].max() <= step * 1.01
+    behind = X < 0.3 - rho                              # the obstacle blocks the view of the goal
+    np.testing.assert_allclose(L[outside & (X > 0.3 + rho)], straight[outside & (X > 0.3 + rho)], atol=1e-5)
+    assert np.all(L[outside & behind & (np.abs(Y) < 0.05)] > straight[outside & behind & (np.abs(Y) < 0.05)] + 0.05)
+    inside = ~outside & (np.hypot(X - 0.3, Y) > 0.02)   # away from the undefined centre
+    assert np.all(np.isfinite(L)) and np.all(L[inside] >= straight[inside] - 1e-5)
+
+
+def test_detour_disc_covers_the_footprint_and_never_the_goal() -> None:
+    tee = Shape.tee()
+    w = DETOUR
+    scene = Scene.make(tee, (0.6, 0.0, 0.0), ((0.30, 0.0, 0.05),), w)
+    a, _ = tee.edges
+    assert float(scene.detour_radius[0]) == pytest.approx(0.05 + w.obstacle_margin_m + np.hypot(*a.T).max())
+    near = Scene.make(tee, (0.40, 0.0, 0.0), ((0.30, 0.0, 0.05),), w)     # goal 0.1 m from the obstacle
+    assert float(near.detour_radius[0]) == pytest.approx(0.10)
+    assert float(detour_length_sq(jnp.float32(0.4), jnp.float32(0.0), near)) == pytest.approx(0.0, abs=1e-10)
+
+
+def test_without_detour_or_obstacles_the_cost_is_the_papers() -> None:
+    tee = Shape.tee()
+    x = jnp.asarray([[0.1, 0.05, 0.3, 0.0, -0.2], [-0.2, 0.0, 0.0, -0.4, 0.0]], jnp.float32)
+    plain = CostWeights()
+    assert not plain.detour                              # the paper's eq. (9) unless asked
+    for obstacles in ((), ((0.30, 0.0, 0.05),)):
+        off = Scene.make(tee, (0.6, 0.0, 0.0), obstacles, plain)
+        assert off.detour_radius.shape == (0,)
+        xb, yb, th = x[:, 0], x[:, 1], x[:, 2]
+        d2 = (xb - 0.6) ** 2 + yb ** 2 + plain.c * (1 - jnp.cos(th))
+        np.testing.assert_allclose(terminal_cost(x, off, plain), plain.q_f * d2, rtol=1e-5)
+    on = Scene.make(tee, (0.6, 0.0, 0.0), ((0.30, 0.0, 0.05),), DETOUR)
+    # behind the obstacle the detour costs more; beside the goal it is the same
+    assert float(running_cost(x[1:], on, DETOUR)[0]) > float(running_cost(x[1:], off, plain)[0])
+    near_goal = jnp.asarray([[0.58, 0.01, 0.02, 0.4, 0.0]], jnp.float32)
+    np.testing.assert_allclose(terminal_cost(near_goal, on, DETOUR), terminal_cost(near_goal, off, plain),
+                               rtol=1e-5)
