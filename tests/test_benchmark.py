@@ -119,19 +119,22 @@ def test_tables_agree_with_records(tmp_path: Path) -> None:
              object_path_m=op, pusher_path_m=pp, planning_ms_median=2.0, planning_ms_max=9.0)
         for s, ok, n, op, pp in [(0, True, 100, 0.7, 1.0), (1, False, 1500, 0.2, 2.0), (2, True, 300, 0.9, 1.4)]
     ]
-    gcs = dict(records[0], method="gcs", offline_plan_s=1.5, replans=2)   # GCS records carry two more fields
+    for r, stalls in zip(records, (0, 3, 1), strict=True):   # MPPI records count stall restarts
+        r["stall_resets"] = stalls
+    gcs = dict(records[0], method="gcs", offline_plan_s=1.5, replans=2, stall_resets=None)   # GCS: two more fields
     s = summarize(records)
     assert s["success_rate"] == pytest.approx(2 / 3, abs=1e-4) and s["successes"] == 2
     assert s["object_path_m"][0] == pytest.approx(0.8) and s["pusher_path_m"][0] == pytest.approx(1.2)
     assert s["time_to_goal_s"][0] == pytest.approx(8.0)
     assert s["offline_plan_s"] is None and summarize([gcs])["offline_plan_s"] == [1.5, 1.5]
+    assert s["stall_resets_mean"] == pytest.approx(4 / 3, abs=0.01) and summarize([gcs])["stall_resets_mean"] is None
     files = write_tables(tmp_path, [*records, gcs], {"command": "test", "date": "today", "machine": "here"})
     saved = json.loads(Path(files["json"]).read_text())
     assert saved["trials"] == [*records, gcs] and saved["summary"][0]["success_rate"] == s["success_rate"]
     md = Path(files["markdown"]).read_text()
     assert "| I | rect | known | mppi | 2/3 (67 %) | 0.800 ± 0.100 |" in md
-    assert "| 2.0 / 9 | – | – |" in md and "| I | rect | known | gcs | 1/1 (100 %) |" in md
-    assert md.strip().endswith("| 2.0 / 9 | 1.5 / 1.5 | 2.0 |")
+    assert "| 2.0 / 9 | – | – | 1.3 |" in md and "| I | rect | known | gcs | 1/1 (100 %) |" in md
+    assert md.strip().endswith("| 2.0 / 9 | 1.5 / 1.5 | 2.0 | – |")
     lines = Path(files["csv"]).read_text().strip().splitlines()
     assert len(lines) == 5 and lines[0].endswith("offline_plan_s,replans") and lines[1].endswith(",,")
 

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -27,11 +29,15 @@ def _state_at(x_b: float, pusher_gap: float = 0.1) -> jnp.ndarray:
     return jnp.asarray([x_b, 0.0, 0.0, x_b - 0.1 - SHAPE.pusher_radius - pusher_gap, 0.0], jnp.float32)
 
 
+@functools.cache
+def _compiled_watch(settings: ControllerSettings):
+    return jax.jit(functools.partial(watch_progress, contour=CONTOUR, scene=SCENE, settings=settings))
+
+
 def _watch(settings: ControllerSettings, positions: list[float]) -> list[bool]:
-    state = policy_init(LAMBDA_TRUE, settings, 0)
-    out = []
+    state, watch, out = policy_init(LAMBDA_TRUE, settings, 0), _compiled_watch(settings), []
     for xb in positions:
-        state, stalled = watch_progress(state, _state_at(xb), contour=CONTOUR, scene=SCENE, settings=settings)
+        state, stalled = watch(state, _state_at(xb))
         out.append(bool(stalled))
     return out
 
@@ -49,9 +55,9 @@ def test_a_stall_is_declared_after_the_set_time_without_progress_and_not_before(
 def test_the_stall_clock_rests_in_contact_and_near_the_goal() -> None:
     s = WATCH
     n = round(s.stall_after_s / s.mppi.control_period)
-    state = policy_init(LAMBDA_TRUE, s, 0)
+    state, watch = policy_init(LAMBDA_TRUE, s, 0), _compiled_watch(s)
     for x in [_state_at(0.0, pusher_gap=0.0)] * (2 * n) + [_state_at(0.59)] * (2 * n):
-        state, stalled = watch_progress(state, x, contour=CONTOUR, scene=SCENE, settings=s)
+        state, stalled = watch(state, x)
         assert not bool(stalled)     # touching the object, then 1 cm from the goal: never a stall
 
 
