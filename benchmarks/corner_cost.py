@@ -50,6 +50,27 @@ def median_ms_alternating(calls: dict[str, Callable[[], object]], repeats: int, 
     return {name: float(np.median(t) * 1e3) for name, t in times.items()}
 
 
+def time_plan_steps(variants: dict[str, tuple[Contour, Scene, ControllerSettings]], x: np.ndarray,
+                    args: argparse.Namespace) -> dict[str, float]:
+    """Median ms of one compiled ``plan_step`` from ``x`` for each (contour, scene, settings) variant."""
+    calls = {}
+    for name, (contour, scene, settings) in variants.items():
+        fn = jax.jit(partial(plan_step, contour=contour, scene=scene, settings=settings))
+        state = policy_init(LAMBDA_TRUE, settings, 0)
+        jax.block_until_ready(fn(state, x))                   # compile outside the timing
+        calls[name] = partial(fn, state, x)
+    return median_ms_alternating(calls, args.repeats, args.rounds)
+
+
+def print_ms_table(what: str, column: str, med: dict[str, float], args: argparse.Namespace) -> None:
+    """The machine, ``what`` was timed, and a markdown table of ms per iteration per variant."""
+    print(f"# {platform.machine()}, {what}, median of {args.repeats // args.rounds * args.rounds} iterations each")
+    print(f"| {column} | ms per iteration |")
+    print("|---|---|")
+    for name, m in med.items():
+        print(f"| {name} | {m:.3f} |")
+
+
 def main() -> None:
     args = timing_args(__doc__)
     shape = Shape.tee()
@@ -58,21 +79,9 @@ def main() -> None:
     with_corners = Contour.of(shape)
     variants = {"single contact": with_corners._replace(corners=None), "with corners": with_corners}
     x = np.array([0.0, 0.0, 0.0, -0.05, -0.08], np.float32)      # pusher below the bar, beside the stem
-    steps = {}
-    for name, contour in variants.items():
-        fn = jax.jit(partial(plan_step, contour=contour, scene=scene, settings=settings))
-        state = policy_init(LAMBDA_TRUE, settings, 0)
-        jax.block_until_ready(fn(state, x))
-        steps[name] = (fn, state)
-    med = median_ms_alternating({name: partial(fn, state, x) for name, (fn, state) in steps.items()},
-                                args.repeats, args.rounds)
+    med = time_plan_steps({name: (contour, scene, settings) for name, contour in variants.items()}, x, args)
     ratio = med["with corners"] / med["single contact"]
-    print(f"# {platform.machine()}, K = {args.samples}, N_p = {settings.mppi.horizon}, T Task I, "
-          f"median of {args.repeats // args.rounds * args.rounds} iterations each")
-    print("| model | ms per iteration |")
-    print("|---|---|")
-    for name, m in med.items():
-        print(f"| {name} | {m:.3f} |")
+    print_ms_table(f"T Task I, K = {args.samples}, N_p = {settings.mppi.horizon}", "model", med, args)
     print(f"slowdown: {100 * (ratio - 1):+.1f} % (allowed: +20 %)")
     print(json.dumps({"ms_single_contact": round(med["single contact"], 4),
                       "ms_with_corners": round(med["with corners"], 4), "slowdown": round(ratio - 1, 4)}))

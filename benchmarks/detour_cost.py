@@ -13,23 +13,20 @@ variants are timed in alternating rounds so that drift in machine load hits both
 from __future__ import annotations
 
 import json
-import platform
 import sys
-from functools import partial
 from pathlib import Path
 
-import jax
 import numpy as np
 
 from dexpush import Shape
-from dexpush.controller import ControllerSettings, plan_step, policy_init
+from dexpush.controller import ControllerSettings
 from dexpush.cost import CostWeights, Scene
-from dexpush.model import LAMBDA_TRUE, Contour
+from dexpush.model import Contour
 from dexpush.mppi import MPPISettings
 from dexpush.tasks import get_task
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from corner_cost import median_ms_alternating, timing_args  # a sibling script
+from corner_cost import print_ms_table, time_plan_steps, timing_args  # a sibling script
 
 
 def main() -> None:
@@ -41,22 +38,10 @@ def main() -> None:
                                                            stall_after_s=4.0)}
     contour = Contour.of(shape)
     x = np.array([0.1, 0.05, -0.3, -0.02, -0.1], np.float32)      # on the way, the obstacle ahead
-    steps = {}
-    for name, settings in variants.items():
-        scene = Scene.make(shape, task.goal, task.obstacles, settings.weights)
-        fn = jax.jit(partial(plan_step, contour=contour, scene=scene, settings=settings))
-        state = policy_init(LAMBDA_TRUE, settings, 0)
-        jax.block_until_ready(fn(state, x))
-        steps[name] = (fn, state)
-    med = median_ms_alternating({name: partial(fn, state, x) for name, (fn, state) in steps.items()},
-                                args.repeats, args.rounds)
+    med = time_plan_steps({name: (contour, Scene.make(shape, task.goal, task.obstacles, settings.weights), settings)
+                           for name, settings in variants.items()}, x, args)
     base, new = med["straight (paper)"], med["detour + stall watch"]
-    print(f"# {platform.machine()}, K = {args.samples}, N_p = {mppi.horizon}, T Task III, "
-          f"median of {args.repeats // args.rounds * args.rounds} iterations each")
-    print("| goal distance | ms per iteration |")
-    print("|---|---|")
-    for name, m in med.items():
-        print(f"| {name} | {m:.3f} |")
+    print_ms_table(f"T Task III, K = {args.samples}, N_p = {mppi.horizon}", "goal distance", med, args)
     print(f"slowdown: {100 * (new / base - 1):+.1f} %")
     print(json.dumps({"ms_straight": round(base, 4), "ms_detour": round(new, 4), "slowdown": round(new / base - 1, 4)}))
 
