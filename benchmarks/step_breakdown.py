@@ -8,6 +8,11 @@ plant (10 Euler substeps). This times, vmapped over the lanes and jitted, each p
 and the whole step, with the UKF on and off, plus a 25-step scanned chunk as the benchmark
 runs it. Medians of ``--repeats`` calls after warm-up. Use it on a CPU and on a GPU to see
 what dominates there. The last line printed is JSON.
+
+Two rows time the estimator's per-lane switch (half the lanes on, as the benchmark's mixed
+queue of MPPI and MPPI+UKF trials has it): the way ``estimate_step`` does it (compute the
+update, keep it where the flag is set) and the ``lax.cond`` it replaced, rebuilt here from the
+same pieces (docs/performance.md#the-estimators-switch).
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ import numpy as np
 
 from dexpush.controller import ControllerSettings, estimate_step, plan_step, policy_init, policy_step
 from dexpush.cost import Scene
+from dexpush.estimator import estimator_observe, rate_limited
 from dexpush.model import LAMBDA_TRUE, Contour, integrate
 from dexpush.mppi import MPPISettings
 from dexpush.registry import make_shape
@@ -62,9 +68,24 @@ def main() -> None:
     lam, mu, T = jnp.asarray(LAMBDA_TRUE, jnp.float32), jnp.float32(0.3), jnp.float32(0.04)
     U = jnp.full((B, 2), 0.03, jnp.float32)
 
+    def estimate_by_cond(state, x, on):
+        """``estimate_step`` before 2026-11-23, as it was: ``lax.cond`` on the flag (a select under vmap)."""
+        dt = jnp.float32(settings.mppi.control_period)
+
+        def observe(s):
+            est, _ = estimator_observe(s.estimator, x, jnp.bool_(True), contour, settings.ukf, s.mu, dt,
+                                       settings.ukf_substeps)
+            return est, rate_limited(s.params, est.filter.mean, dt, settings.ukf), s.mu
+
+        est, lam, mu = jax.lax.cond(on, observe, lambda s: (s.estimator, s.params, s.mu), state)
+        return state._replace(estimator=est, params=lam, mu=mu)
+
     pieces = {
         "estimate (UKF window update)": jax.jit(jax.vmap(
             lambda s, x: estimate_step(s, x, True, contour=contour, settings=settings))),
+        "estimate, UKF flag per lane (half on)": jax.jit(jax.vmap(
+            lambda s, x, e: estimate_step(s, x, e, contour=contour, settings=settings))),
+        "estimate, UKF flag per lane through lax.cond (before)": jax.jit(jax.vmap(estimate_by_cond)),
         "plan (one MPPI iteration)": jax.jit(jax.vmap(
             lambda s, x: plan_step(s, x, contour=contour, scene=scene, settings=settings)[1])),
         "plant (10 Euler substeps)": jax.jit(jax.vmap(lambda s, x: integrate(contour, x, U[0], T, lam, mu, 10))),
@@ -78,7 +99,7 @@ def main() -> None:
     flags = jnp.arange(B) % 2 == 0
     rows = {}
     for name, fn in pieces.items():
-        call = (lambda fn=fn: fn(states, X, flags)) if "per lane" in name else (lambda fn=fn: fn(states, X))
+        call = (lambda fn=fn: fn(states, X, flags)) if "flag per lane" in name else (lambda fn=fn: fn(states, X))
         rows[name] = median_ms(call, args.repeats)
 
     @jax.jit

@@ -103,3 +103,36 @@ def test_a_trial_that_starts_at_its_goal_takes_no_steps() -> None:
     task = Task("X", "at goal", goal=(0.0, 0.0, 0.0), start_jitter_m=0.0, start_jitter_deg=0.0)
     out = simulate(task, make_shape("rect"), [TrialSpec(0)], lanes=1, max_steps=5)[0]
     assert out.success and out.steps == 0 and out.states.shape == (1, 5) and out.commands.shape == (0, 2)
+
+
+def test_a_per_lane_estimate_flag_updates_exactly_the_lanes_it_marks() -> None:
+    """estimate_step with a traced per-lane flag (as the batched simulator calls it): flagged lanes
+    follow the update a static True compiles, unflagged lanes keep their state bit for bit."""
+    import jax
+    import jax.numpy as jnp
+
+    from dexpush.controller import estimate_step, policy_init
+    from dexpush.model import Contour
+
+    shape = make_shape("rect")
+    settings, contour = ControllerSettings(), Contour.of(shape)
+    plant = ModelPlant(shape, params=(20.0, 0.01, -0.01))
+    obs = plant.reset((0.0, 0.0, 0.0), (-0.12, 0.01))
+    frames = []
+    for k in range(40):
+        obs = plant.step((0.05, 0.01 * np.sin(k / 5)), 0.04)
+        frames.append(np.asarray(obs.state, np.float32))
+    flags = jnp.asarray([True, False, True, False])
+    start = jax.vmap(lambda s: policy_init(UNKNOWN, settings, s, shape.footprint_box))(jnp.arange(4))
+    per_lane = jax.jit(jax.vmap(lambda s, x, e: estimate_step(s, x, e, contour=contour, settings=settings)))
+    always = jax.jit(jax.vmap(lambda s, x: estimate_step(s, x, True, contour=contour, settings=settings)))
+    assert estimate_step(start, frames[0], False, contour=contour, settings=settings) is start
+    mixed, on = start, start
+    for f in frames:
+        x = jnp.tile(jnp.asarray(f), (4, 1))
+        mixed, on = per_lane(mixed, x, flags), always(on, x)
+    assert int(on.estimator.updates[0]) > 5                       # the windows were informative
+    for a, b, c in zip(jax.tree.leaves(mixed), jax.tree.leaves(on), jax.tree.leaves(start)):
+        a, b, c = np.asarray(a), np.asarray(b), np.asarray(c)
+        np.testing.assert_array_equal(a[1::2], c[1::2])
+        np.testing.assert_allclose(a[::2], b[::2], rtol=1e-4, atol=1e-6)

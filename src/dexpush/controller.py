@@ -113,6 +113,9 @@ def estimate_step(state: ControllerState, observation: jnp.ndarray, estimate: jn
     updates the filter (:func:`dexpush.estimator.estimator_observe`), and λ_pred follows the
     filter's mean within the rate limit (:func:`dexpush.estimator.rate_limited`). Pure and jit-able.
 
+    ``estimate`` is a Python bool (the branch is chosen when tracing) or a traced boolean, e.g.
+    one per lane under ``vmap``; a traced flag computes the update and keeps it where true.
+
     ``frame_period`` is the time between observations (s; default: the control period).
     It may be a traced value: a camera whose period jitters costs no recompilation.
     """
@@ -127,8 +130,17 @@ def estimate_step(state: ControllerState, observation: jnp.ndarray, estimate: jn
             return est, new[:3], new[3]
         return est, rate_limited(s.params, est.filter.mean, dt, settings.ukf), s.mu
 
-    # (under vmap with a per-trial flag this becomes a select: both branches run)
-    est, lam, mu = jax.lax.cond(jnp.asarray(estimate), observe, lambda s: (s.estimator, s.params, s.mu), state)
+    if isinstance(estimate, bool | np.bool_):     # known at trace time: only the chosen branch is compiled
+        if not estimate:
+            return state
+        est, lam, mu = observe(state)
+    else:
+        # a traced flag (one per lane in dexpush.simulate): compute the update and select it. A lax.cond
+        # turns into a select of both branches under vmap anyway, and that form measured ~9× slower than
+        # this one (26 against 3 ms for 8 lanes of the T: docs/performance.md#the-estimators-switch)
+        on = jnp.asarray(estimate)
+        est, lam, mu = jax.tree.map(lambda a, b: jnp.where(on, a, b), observe(state),
+                                    (state.estimator, state.params, state.mu))
     return state._replace(estimator=est, params=lam, mu=mu)
 
 
@@ -198,9 +210,9 @@ def policy_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.
 
 
 @partial(jax.jit, static_argnames="settings")
-def _estimate_jit(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray, contour: Contour,
+def _estimate_jit(state: ControllerState, observation: jnp.ndarray, contour: Contour,
                   settings: ControllerSettings, frame_period: jnp.ndarray) -> ControllerState:
-    return estimate_step(state, observation, estimate, contour=contour, settings=settings,
+    return estimate_step(state, observation, settings.estimate_params, contour=contour, settings=settings,
                          frame_period=frame_period)
 
 
@@ -342,7 +354,7 @@ class PushingController:
     def _warm_up(self, obs: jnp.ndarray) -> None:
         """Run (and so compile) estimate, plan and predict once on ``obs``; results are discarded."""
         state = policy_init(self._initial_params, self.settings, self._seed, self.shape.footprint_box)
-        state = _estimate_jit(state, obs, jnp.asarray(self.settings.estimate_params), self.contour, self.settings,
+        state = _estimate_jit(state, obs, self.contour, self.settings,
                               jnp.float32(self.settings.mppi.control_period))
         state, u, _ = _plan_jit(state, obs, self.contour, self.scene, self.settings)
         x = _predict_jit(self.contour, obs, u, jnp.float32(self.settings.mppi.control_period), state.params,
@@ -354,7 +366,7 @@ class PushingController:
         q = checked_vector("object_pose", object_pose, 3)
         p = checked_vector("pusher_xy", pusher_xy, 2)
         obs = self._local(q, p)
-        st = _estimate_jit(self.state, obs, jnp.asarray(self.settings.estimate_params), self.contour,
+        st = _estimate_jit(self.state, obs, self.contour,
                            self.settings, jnp.float32(self.settings.mppi.control_period))
         self.state, u, self.last = _plan_jit(st, obs, self.contour, self.scene, self.settings)
         self._check_estimator()
@@ -382,7 +394,7 @@ class PushingController:
             q = checked_vector("object_pose", frame.object_pose, 3)
             p = checked_vector("pusher_xy", frame.pusher_xy, 2)
             obs = self._local(q, p)
-            self.state = _estimate_jit(self.state, obs, jnp.asarray(self.settings.estimate_params), self.contour,
+            self.state = _estimate_jit(self.state, obs, self.contour,
                                        self.settings, jnp.float32(period))
             x = obs
             segments = [(max(t0, since), t0 + T, u) for t0, u in self._history if t0 + T > since]
