@@ -187,3 +187,43 @@ def test_pool_workers_end_when_the_benchmark_process_is_killed(tmp_path) -> None
         time.sleep(0.1)
     os.kill(worker, 9)
     raise AssertionError("the orphaned worker was still running 20 s after its parent died")
+
+
+def test_records_label_a_trajectory_in_blocks_as_they_would_unpadded() -> None:
+    """make_episode pads to LABEL_BLOCK steps (one compile per block count): the modes and
+    touches it records are those of the trajectory itself."""
+    import jax.numpy as jnp
+
+    from dexpush.cost import Scene, collides
+    from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
+    from dexpush.records import LABEL_BLOCK, make_episode
+    from dexpush.registry import make_shape
+    from dexpush.simulate import TrialResult, TrialSpec
+    from dexpush.tasks import get_task
+
+    task, shape = get_task("III"), make_shape("rect")
+    rng = np.random.default_rng(3)
+    n = LABEL_BLOCK + 37
+    # the pusher sweeps past the box's back face (contact on and off) while the box drifts into the disc
+    X = np.zeros((n + 1, 5))
+    X[:, 0] = np.linspace(0.0, 0.3, n + 1)
+    X[:, 3] = X[:, 0] - 0.06 + 0.01 * np.sin(np.arange(n + 1) / 9)
+    X[:, 4] = 0.03 * rng.standard_normal(n + 1)
+    U = rng.uniform(-0.05, 0.1, (n, 2))
+    ep = make_episode(task, "rect", shape, "known", "mppi", TrialResult(TrialSpec(0), False, X, U, np.zeros((n, 3)),
+                                                                       np.ones(n)), 16)
+    modes = np.asarray(contact_solution(Contour.of(shape), X[:-1], U, LAMBDA_TRUE).mode)
+    hits = np.asarray(collides(jnp.asarray(X[1:], jnp.float32), Scene.make(shape, task.goal, task.obstacles)))
+    np.testing.assert_array_equal(ep.modes, modes)
+    in_contact = modes != MODE_NAMES.index("free")
+    assert ep.record.contact_switches == int(np.sum(in_contact[1:] != in_contact[:-1])) > 0
+    assert ep.record.collisions == int(hits.sum()) > 0
+
+
+def test_longest_groups_run_first() -> None:
+    from dexpush.benchmark import _expected_cost
+
+    groups = [(t, s) for t in ("I", "II", "III") for s in ("rect", "tee")]
+    ordered = sorted(groups, key=_expected_cost, reverse=True)
+    assert ordered[0] == ("III", "tee") and ordered[-1][1] == "rect"
+    assert ordered.index(("III", "rect")) < ordered.index(("I", "rect"))

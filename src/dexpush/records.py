@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -25,6 +26,19 @@ __all__ = ["CONDITION_KEYS", "Episode", "EpisodeRecord", "condition_name", "make
            "summarize"]
 
 CONDITION_KEYS = ("task", "shape", "params", "method")
+
+#: a trajectory is labelled (contact modes, obstacle touches) padded to a multiple of this many
+#: steps, so the jitted labelling compiles once per block count, not once per trajectory length
+#: (each compile took 3–4 s, more than the trial's own simulation: docs/performance.md#the-720-trial-table)
+LABEL_BLOCK = 256
+
+_collides = jax.jit(collides)
+
+
+def _in_blocks(a: np.ndarray) -> np.ndarray:
+    """``a`` with its last row repeated up to a multiple of :data:`LABEL_BLOCK` rows."""
+    n = -(-len(a) // LABEL_BLOCK) * LABEL_BLOCK
+    return np.concatenate([a, np.repeat(a[-1:], n - len(a), axis=0)])
 
 
 def condition_name(task: str, shape: str, params: str, method: str) -> str:
@@ -106,8 +120,9 @@ def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method:
     scene = scene or Scene.make(shape, task.goal, task.obstacles)
     X, U = result.states, result.commands
     if len(U):
-        modes = np.asarray(contact_solution(Contour.of(shape), X[:-1], U, LAMBDA_TRUE).mode)
-        hits = np.asarray(collides(jnp.asarray(X[1:], jnp.float32), scene))
+        n = len(U)
+        modes = np.asarray(contact_solution(Contour.of(shape), _in_blocks(X[:-1]), _in_blocks(U), LAMBDA_TRUE).mode)[:n]
+        hits = np.asarray(_collides(jnp.asarray(_in_blocks(X[1:]), jnp.float32), scene))[:n]
     else:
         modes, hits = np.zeros(0, int), np.zeros(0, bool)
     in_contact = modes != MODE_NAMES.index("free")

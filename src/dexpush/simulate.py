@@ -11,7 +11,7 @@ N_max steps) the next trial takes its lane at the next chunk boundary. The compi
 program therefore has one batch size for a whole run, and a lane's arithmetic never
 depends on its neighbours: a trial's outcome does not depend on which trials shared its
 batch or which lane it ran in (``tests/test_simulate.py`` checks this bit for bit), so
-``dexpush bench`` on a subset of seeds, or ``dexpush run --lanes 32``, reproduces what
+``dexpush bench`` on a subset of seeds, or ``dexpush run --lanes 16``, reproduces what
 ``dexpush bench`` recorded for a seed. A *different* lane count is a different XLA
 program, which may round differently (XLA picks fusions and FMA contractions by shape):
 episodes then agree to float32 round-off at first, and a closed loop may amplify that.
