@@ -26,8 +26,8 @@ from dexpush.checks import check_nonnegative, check_positive
 from dexpush.geometry import Shape
 from dexpush.model import State, components
 
-__all__ = ["CostWeights", "Scene", "collides", "decoupled_distance_sq", "detour_length_sq", "goal_distance_sq",
-           "running_cost", "terminal_cost"]
+__all__ = ["CostWeights", "Scene", "collides", "collides_jit", "decoupled_distance_sq", "detour_length_sq",
+           "goal_distance_sq", "running_cost", "terminal_cost"]
 
 
 @dataclass(frozen=True)
@@ -216,6 +216,11 @@ def collides(x: State, scene: Scene, margin: float = 0.0) -> jnp.ndarray:
         pdx, pdy = xc - ox, yc - oy
         hit = hit | (d2 < r * r) | inside | (pdx * pdx + pdy * pdy < (r + scene.pusher_radius) ** 2)
     return hit
+
+
+#: :func:`collides` compiled once, for checking logged trajectories on the host (the batched
+#: simulator's chunks, the records of finished trials)
+collides_jit = jax.jit(collides)
 
 
 def goal_distance_sq(x: State, scene: Scene, c: float) -> jnp.ndarray:

@@ -10,11 +10,10 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.cost import Scene, collides
+from dexpush.cost import Scene, collides_jit
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
 from dexpush.se2 import pose_error
@@ -31,9 +30,6 @@ CONDITION_KEYS = ("task", "shape", "params", "method")
 #: steps, so the jitted labelling compiles once per block count, not once per trajectory length
 #: (each compile took 3–4 s, more than the trial's own simulation: docs/performance.md#the-720-trial-table)
 LABEL_BLOCK = 256
-
-_collides = jax.jit(collides)
-
 
 def _in_blocks(a: np.ndarray) -> np.ndarray:
     """``a`` with its last row repeated up to a multiple of :data:`LABEL_BLOCK` rows."""
@@ -122,7 +118,7 @@ def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method:
     if len(U):
         n = len(U)
         modes = np.asarray(contact_solution(Contour.of(shape), _in_blocks(X[:-1]), _in_blocks(U), LAMBDA_TRUE).mode)[:n]
-        hits = np.asarray(_collides(jnp.asarray(_in_blocks(X[1:]), jnp.float32), scene))[:n]
+        hits = np.asarray(collides_jit(jnp.asarray(_in_blocks(X[1:]), jnp.float32), scene))[:n]
     else:
         modes, hits = np.zeros(0, int), np.zeros(0, bool)
     in_contact = modes != MODE_NAMES.index("free")

@@ -39,7 +39,7 @@ from tqdm import tqdm
 
 from dexpush.checks import check_params, checked_vector
 from dexpush.controller import ControllerSettings, ControllerState, policy_init, policy_step
-from dexpush.cost import Scene, collides
+from dexpush.cost import Scene, collides_jit
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, Contour, integrate
 from dexpush.tasks import MAX_STEPS, Task, initial_conditions, is_success
@@ -115,9 +115,6 @@ def _advance(lanes: Lane, estimate: jnp.ndarray, max_steps: jnp.ndarray, contour
                   plant_mu=plant_mu, settings=settings, substeps=substeps)
     batched = jax.vmap(one)
     return jax.lax.scan(lambda c, _: batched(c, estimate), lanes, None, length=length)
-
-
-_collides = jax.jit(collides)
 
 
 def _new_lane(task: Task, shape: Shape, spec: TrialSpec, settings: ControllerSettings) -> Lane:
@@ -230,7 +227,7 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
         ms = (time.perf_counter() - t0) * 1e3 / (n_lanes * chunk)
         # touching an obstacle ends a trial as a failure (conventions.md#benchmark-tasks); checked on the logged
         # states rather than inside the compiled step, whose program (and rounding) it would change
-        hits = np.asarray(_collides(jnp.asarray(xs), scene)) if len(task.obstacles) else np.zeros(active.shape, bool)
+        hits = np.asarray(collides_jit(jnp.asarray(xs), scene)) if len(task.obstacles) else np.zeros(active.shape, bool)
         for k, i in enumerate(owner):
             if i is None:
                 continue
