@@ -16,6 +16,7 @@ import pytest
 from dexpush.benchmark import run_benchmark
 from dexpush.cli import main
 from dexpush.controller import ControllerSettings
+from dexpush.cost import CostWeights
 from dexpush.records import summarize
 from dexpush.sensing import SensorSettings
 from dexpush.tables import write_tables
@@ -55,14 +56,28 @@ def test_a_folder_refuses_runs_with_other_settings(tmp_path: Path) -> None:
         run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=3, lanes=2, progress=False)
     assert main(["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi",
                  "--seeds", "0", "--max-steps", "9", "--lanes", "2", "--quiet", "--out", str(tmp_path)]) == 2
-    # a folder started before an option existed is adopted with the option at its default (off) only
+    # a folder started before an option existed was made without it: it is adopted with the option off
+    # (the stall watch and the detour are on by default now), and with a newer setting's default
     del saved["settings"]["controller"]["stall_after_s"]
+    del saved["settings"]["controller"]["weights"]["detour"]
+    del saved["settings"]["controller"]["stall_backoff"]
     (tmp_path / "settings.json").write_text(json.dumps(saved))
-    run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
-                  figures=False)
-    with pytest.raises(ValueError, match=r"stall_after_s: None there, 4.0 now"):
+    with pytest.raises(ValueError, match=r"stall_after_s: None there, 4.0 now; controller.weights.detour: False there"):
         run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
-                      figures=False, settings=ControllerSettings(stall_after_s=4.0))
+                      figures=False)
+    run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
+                  figures=False, settings=ControllerSettings(weights=CostWeights(detour=False), stall_after_s=None))
+
+
+def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path: Path) -> None:
+    assert main(["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi", "--seeds", "0",
+                 "--max-steps", "2", "--lanes", "1", "--no-detour", "--stall-after", "off", "--no-figures", "--quiet",
+                 "--out", str(tmp_path)]) == 0
+    controller = json.loads((tmp_path / "settings.json").read_text())["settings"]["controller"]
+    assert controller["weights"]["detour"] is False and controller["stall_after_s"] is None
+    assert "--no-detour --stall-after off" in (tmp_path / "benchmark.md").read_text()
+    with pytest.raises(SystemExit):
+        main(["bench", "--stall-after", "0", "--out", str(tmp_path)])
 
 
 def test_an_interrupted_run_keeps_every_finished_trials_trajectory(tmp_path: Path, monkeypatch) -> None:

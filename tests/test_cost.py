@@ -110,10 +110,11 @@ def test_detour_disc_covers_the_footprint_and_never_the_goal() -> None:
 
 
 def test_without_detour_or_obstacles_the_cost_is_the_papers() -> None:
+    assert Scene.make(Shape.tee(), (0.6, 0.0, 0.0)).detour_radius.shape == (0,)   # no obstacle, no detour
     tee = Shape.tee()
     x = jnp.asarray([[0.1, 0.05, 0.3, 0.0, -0.2], [-0.2, 0.0, 0.0, -0.4, 0.0]], jnp.float32)
-    plain = CostWeights()
-    assert not plain.detour                              # the paper's eq. (9) unless asked
+    plain = CostWeights(detour=False)                    # the paper's eq. (9) as written
+    assert CostWeights().detour                          # the default measures round the obstacles
     for obstacles in ((), ((0.30, 0.0, 0.05),)):
         off = Scene.make(tee, (0.6, 0.0, 0.0), obstacles, plain)
         assert off.detour_radius.shape == (0,)

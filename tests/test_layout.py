@@ -11,7 +11,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "dexpush"
 
 #: lowest first; a module may import only from strictly lower layers (or its own sub-package)
 LAYERS = [
-    {"fastmath", "se2", "checks", "files", "compile_cache", "polygons", "xla_options"},
+    {"fastmath", "se2", "checks", "files", "compile_cache", "polygons", "xla_options", "arguments"},
     {"geometry", "interfaces", "corner", "noise"},
     {"model"},
     {"cost", "mppi", "ukf", "tasks", "fitting"},

@@ -24,9 +24,11 @@ CONTOUR = Contour.of(SHAPE)
 WATCH = ControllerSettings(stall_after_s=4.0)
 
 
-def _state_at(x_b: float, pusher_gap: float = 0.1) -> jnp.ndarray:
-    """The rectangle at x_b, the pusher behind it, ``pusher_gap`` off its 0.1-m half-length (+ radius)."""
-    return jnp.asarray([x_b, 0.0, 0.0, x_b - 0.1 - SHAPE.pusher_radius - pusher_gap, 0.0], jnp.float32)
+def _state_at(x_b: float, pusher_gap: float = 0.1, theta: float = 0.0) -> jnp.ndarray:
+    """The rectangle at x_b turned by ``theta``, the pusher ``pusher_gap`` off its 0.1-m half-length
+    (+ radius) behind it."""
+    r = 0.1 + SHAPE.pusher_radius + pusher_gap
+    return jnp.asarray([x_b, 0.0, theta, x_b - r * np.cos(theta), -r * np.sin(theta)], jnp.float32)
 
 
 @functools.cache
@@ -34,10 +36,10 @@ def _compiled_watch(settings: ControllerSettings):
     return jax.jit(functools.partial(watch_progress, contour=CONTOUR, scene=SCENE, settings=settings))
 
 
-def _watch(settings: ControllerSettings, positions: list[float]) -> list[bool]:
+def _watch(settings: ControllerSettings, positions: list[float], headings: list[float] | None = None) -> list[bool]:
     state, watch, out = policy_init(LAMBDA_TRUE, settings, 0), _compiled_watch(settings), []
-    for xb in positions:
-        state, stalled = watch(state, _state_at(xb))
+    for xb, th in zip(positions, headings or [0.0] * len(positions), strict=True):
+        state, stalled = watch(state, _state_at(xb, theta=th))
         out.append(bool(stalled))
     return out
 
@@ -45,11 +47,31 @@ def _watch(settings: ControllerSettings, positions: list[float]) -> list[bool]:
 def test_a_stall_is_declared_after_the_set_time_without_progress_and_not_before() -> None:
     s = WATCH
     n = round(s.stall_after_s / s.mppi.control_period)
-    flags = _watch(s, [0.0] * (2 * n + 1))
-    assert np.flatnonzero(flags).tolist() == [n, 2 * n]          # every stall_after_s while nothing moves
+    flags = _watch(s, [0.0] * (7 * n + 1))
+    # while nothing moves: after stall_after_s, then after twice as long, then four times (the backoff)
+    assert np.flatnonzero(flags).tolist() == [n, 3 * n, 7 * n]
+    assert np.flatnonzero(_watch(dataclasses.replace(s, stall_backoff=1.0), [0.0] * (2 * n + 1))).tolist() == [n, 2 * n]
     # steady progress of 2 mm a period never stalls, though each step is below stall_progress_m
     assert not any(_watch(s, list(np.arange(3 * n) * 0.002)))
     assert not any(_watch(dataclasses.replace(s, stall_after_s=None), [0.0] * (2 * n + 1)))
+
+
+def test_a_slow_turn_in_place_is_progress() -> None:
+    """Task II's final turn: the position stays, the heading comes down by 2.5° every 3 s. d (eq. 9b)
+    moves by less than stall_progress_m at a time, but the heading error improves by more than
+    stall_progress_deg: no stall. Turning away from the goal is no progress."""
+    s = WATCH
+    n = round(3.0 / s.mppi.control_period)
+    toward = np.repeat(np.radians(np.arange(30.0, 5.0, -2.5)), n)
+    assert not any(_watch(s, [0.6] * len(toward), list(toward)))
+    assert any(_watch(s, [0.6] * len(toward), list(toward[::-1])))
+
+
+def test_near_means_near_in_both_position_and_heading() -> None:
+    s = WATCH
+    n = round(s.stall_after_s / s.mppi.control_period)
+    assert not any(_watch(s, [0.59] * (2 * n), [np.radians(4.0)] * (2 * n)))   # 1 cm and 4°: near the goal
+    assert any(_watch(s, [0.59] * (2 * n), [np.radians(20.0)] * (2 * n)))      # 1 cm but 20° off: not near
 
 
 def test_the_stall_clock_rests_in_contact_and_near_the_goal() -> None:
@@ -71,10 +93,10 @@ def test_stalls_are_at_most_one_per_stall_time(positions: list[float]) -> None:
 
 
 def test_a_stall_restarts_the_planner_from_a_zero_warm_start_with_a_longer_horizon() -> None:
-    s = WATCH
+    s = dataclasses.replace(WATCH, stall_horizon_scale=2.0)
     contour, x = Contour.of(SHAPE), _state_at(0.0)
     state = policy_init(LAMBDA_TRUE, s, 3)
-    state = state._replace(sequence=jnp.full_like(state.sequence, 0.05), best=jnp.float32(0.6),
+    state = state._replace(sequence=jnp.full_like(state.sequence, 0.05), best=jnp.float32(120.0),
                            idle=jnp.float32(s.stall_after_s - s.mppi.control_period / 2))
     stalled, _, res_stalled = plan_step(state, x, contour=contour, scene=SCENE, settings=s)
     fresh = state._replace(sequence=jnp.zeros_like(state.sequence), idle=jnp.float32(0.0),
@@ -86,6 +108,11 @@ def test_a_stall_restarts_the_planner_from_a_zero_warm_start_with_a_longer_horiz
     # the next progress brings the paper's horizon back
     closer, _ = watch_progress(stalled, _state_at(0.1), contour=CONTOUR, scene=SCENE, settings=s)
     assert float(closer.stretch) == 1.0 and int(closer.stalls) == 1
+    assert int(stalled.streak) == 1 and int(closer.streak) == 0     # progress ends the backoff
+    # near the goal the horizon is the paper's too, progress or not (the endgame needs the fine slots)
+    there = stalled._replace(best=jnp.float32(0.0))
+    there, _ = watch_progress(there, _state_at(0.59), contour=CONTOUR, scene=SCENE, settings=s)
+    assert float(there.stretch) == 1.0 and int(there.streak) == 1
 
 
 def test_stretched_slots_keep_the_first_one_and_scale_the_rest() -> None:
@@ -96,8 +123,9 @@ def test_stretched_slots_keep_the_first_one_and_scale_the_rest() -> None:
     np.testing.assert_allclose(slot_durations(s), base, rtol=1e-6)
 
 
-def test_the_watch_is_off_unless_asked() -> None:
-    assert ControllerSettings().stall_after_s is None
+def test_the_watch_is_on_by_default_and_keeps_the_papers_horizon() -> None:
+    s = ControllerSettings()
+    assert s.stall_after_s == 4.0 and s.stall_horizon_scale == 1.0 and s.weights.detour
 
 
 def test_stall_settings_are_checked() -> None:
@@ -109,3 +137,7 @@ def test_stall_settings_are_checked() -> None:
         ControllerSettings(stall_contact_gap_m=0.0)
     with pytest.raises(ValueError, match="stall_horizon_scale"):
         ControllerSettings(stall_horizon_scale=0.5)
+    with pytest.raises(ValueError, match="stall_progress_deg"):
+        ControllerSettings(stall_progress_deg=0.0)
+    with pytest.raises(ValueError, match="stall_backoff"):
+        ControllerSettings(stall_backoff=0.9)

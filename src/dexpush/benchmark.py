@@ -167,6 +167,11 @@ def run_settings(plant: str, sensor: SensorSettings | None, settings: Controller
                                   "lanes": int(lanes)}))
 
 
+#: controller options that are on by default but were added after results folders were started:
+#: the value that a folder without the key was made with (the option did not exist, so it was off)
+BEFORE_THEY_EXISTED = {"stall_after_s": None, "weights": {"detour": False}}
+
+
 def _with_defaults(saved: object, defaults: dict) -> object:
     """``saved`` with the keys it lacks filled in from ``defaults`` (recursively, dicts only)."""
     if not isinstance(saved, dict):
@@ -198,10 +203,11 @@ def _claim_folder(out: Path, wanted: dict, progress: bool) -> None:
         version = "unknown"
     if path.exists():
         saved = json.loads(path.read_text())
-        # a setting added after the folder was started is taken at its default: new options are
-        # off by default, so the default reproduces what the folder's records were made with
+        # a setting added after the folder was started is taken at the value that reproduces what the
+        # folder's records were made with: off for an option that is on by default now, else its default
         defaults = run_settings(wanted["plant"], None, None, wanted["max_steps"], wanted["lanes"])["controller"]
-        diff = _differences(_with_defaults(saved.get("settings"), {"controller": defaults}), wanted)
+        before = _with_defaults(saved.get("settings"), {"controller": BEFORE_THEY_EXISTED})
+        diff = _differences(_with_defaults(before, {"controller": defaults}), wanted)
         if diff:
             raise ValueError(f"{out} holds results made with other settings ({'; '.join(diff[:3])}"
                              f"{'; …' if len(diff) > 3 else ''}); choose another --out, or delete it to start over")

@@ -21,6 +21,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from dexpush.arguments import floats, positive_int, seed, seed_list, stall_time
 from dexpush.benchmark import BENCH_LANES
 from dexpush.records import CONDITION_KEYS
 from dexpush.registry import ALL_METHODS, PARAMS, PLANTS, SHAPES
@@ -61,25 +62,6 @@ def _episode_files(episode, shape, out: Path, animation: bool, control_period: f
                             obstacles=episode.obstacles)
     write_json_atomic(files["summary"], episode.summary())
     return files
-
-
-def _floats(count: int, what: str):
-    """An argparse type: ``count`` comma-separated numbers (the last may end in ``deg``)."""
-    def parse(text: str) -> tuple[float, ...]:
-        parts = [t.strip() for t in text.split(",")]
-        try:
-            if len(parts) != count:
-                raise ValueError
-            vals = [float(t[:-3]) if t.endswith("deg") else float(t) for t in parts]
-            if parts[-1].endswith("deg"):
-                vals[-1] = math.radians(vals[-1])
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{what}: expected {count} comma-separated numbers, got {text!r}") \
-                from None
-        if not all(math.isfinite(v) for v in vals):
-            raise argparse.ArgumentTypeError(f"{what}: numbers must be finite, got {text!r}")
-        return tuple(vals)
-    return parse
 
 
 #: ``dexpush run`` flags that override the config's [run] table (None: not given)
@@ -238,21 +220,6 @@ def _cmd_fit(args: argparse.Namespace) -> dict:
     return summary
 
 
-def _seed_list(text: str) -> list[int]:
-    """``0-29`` or ``3,7,11`` (or a mix) → sorted seeds."""
-    seeds: set[int] = set()
-    for part in text.split(","):
-        lo, _, hi = part.strip().partition("-")
-        try:
-            a, b = int(lo), int(hi or lo)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"seeds must look like 0-29 or 3,7,11, got {text!r}") from None
-        if a < 0 or b < a:
-            raise argparse.ArgumentTypeError(f"bad seed range {part!r} in {text!r}")
-        seeds.update(range(a, b + 1))
-    return sorted(seeds)
-
-
 def _sensor_flags(args: argparse.Namespace):
     """The camera the flags ask for, or None when no camera flag was given."""
     from dexpush.sensing import SensorSettings
@@ -302,10 +269,13 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
             raise ValueError("--randomize randomises the physics plant's world: use it with --plant physics")
         args.plant = "physics-random"
     settings, options = None, ""
-    if args.detour or args.stall_after is not None:
-        settings = ControllerSettings(weights=CostWeights(detour=args.detour), stall_after_s=args.stall_after)
-        options = (" --detour" if args.detour else "") + (
-            f" --stall-after {args.stall_after:g}" if args.stall_after is not None else "")
+    if args.detour is not None or args.stall_after is not None:
+        default = ControllerSettings()
+        detour = default.weights.detour if args.detour is None else args.detour
+        stall = {None: default.stall_after_s, "off": None}.get(args.stall_after, args.stall_after)
+        settings = ControllerSettings(weights=CostWeights(detour=detour), stall_after_s=stall)
+        options = ("" if args.detour is None else " --detour" if args.detour else " --no-detour") + (
+            "" if args.stall_after is None else f" --stall-after {'off' if stall is None else f'{stall:g}'}")
     t0 = time.perf_counter()
     records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
                             lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures,
@@ -340,20 +310,6 @@ def _version() -> str:
         return "unknown"
 
 
-def _positive_int(text: str) -> int:
-    v = int(text)
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
-    return v
-
-
-def _seed(text: str) -> int:
-    v = int(text)
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"seed must be >= 0, got {text}")
-    return v
-
-
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="dexpush", description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -373,9 +329,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     def episode_args(sp: argparse.ArgumentParser, out: str) -> None:
         sp.add_argument("--out", default=out, help=f"output folder (default {out})")
-        sp.add_argument("--max-steps", type=_positive_int, default=None,
+        sp.add_argument("--max-steps", type=positive_int, default=None,
                         help=f"control steps before giving up (default {MAX_STEPS})")
-        sp.add_argument("--samples", type=_positive_int, default=None, help="MPPI samples K (default 1024)")
+        sp.add_argument("--samples", type=positive_int, default=None, help="MPPI samples K (default 1024)")
         sp.add_argument("--no-animation", action="store_true", help="skip the animation")
         sp.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -400,28 +356,28 @@ def build_parser() -> argparse.ArgumentParser:
     what.add_argument("--task", default=None, help="I, II or III: start distribution, goal, obstacles (default I)")
     what.add_argument("--shape", default=None, metavar="NAME|FILE.toml",
                       help=f"{', '.join(SHAPES)}, or a shape file (docs/conventions.md#shapes) (default rect)")
-    what.add_argument("--goal", type=_floats(3, "--goal"), default=None, metavar="X,Y,THETA",
+    what.add_argument("--goal", type=floats(3, "--goal"), default=None, metavar="X,Y,THETA",
                       help="goal pose of the shape's reference point: x, y in m, θ in rad (or e.g. 30deg) "
                            "(default: the task's)")
-    what.add_argument("--obstacle", type=_floats(3, "--obstacle"), action="append", default=None,
+    what.add_argument("--obstacle", type=floats(3, "--obstacle"), action="append", default=None,
                       metavar="CX,CY,R", help="a disc obstacle in m; repeat for more (default: the task's)")
-    what.add_argument("--seed", type=_seed, default=None, help="start perturbation and MPPI sampling (default 0)")
+    what.add_argument("--seed", type=seed, default=None, help="start perturbation and MPPI sampling (default 0)")
     how = run.add_argument_group("controller and world")
     how.add_argument("--method", default=None, choices=ALL_METHODS,
                      help="MPPI with fixed λ_pred, MPPI with the UKF estimating λ online, or the GCS "
                           "plan-and-track baseline (no obstacles; needs the `drake` package) (default mppi)")
     how.add_argument("--params", default=None, choices=tuple(PARAMS),
                      help="the controller's first λ_pred: λ_true (known) or [15, 0, 0] (unknown) (default known)")
-    how.add_argument("--lambda-pred", type=_floats(3, "--lambda-pred"), default=None, metavar="BETA,XBF,YBF",
+    how.add_argument("--lambda-pred", type=floats(3, "--lambda-pred"), default=None, metavar="BETA,XBF,YBF",
                      help="the controller's first λ_pred = [β (1/m), x_bf (m), y_bf (m)], e.g. from `dexpush fit`; "
                           "overrides --params")
     how.add_argument("--plant", default=None, choices=PLANTS,
                      help="the world: model (C-GVMM), physics (MuJoCo) or physics-random (MuJoCo world --seed "
                           "of the randomised family, with its own camera) (default model)")
-    how.add_argument("--true-params", type=_floats(3, "--true-params"), default=None, metavar="BETA,XBF,YBF",
+    how.add_argument("--true-params", type=floats(3, "--true-params"), default=None, metavar="BETA,XBF,YBF",
                      help="the model plant's true λ (default 25,-0.01,0.02)")
     how.add_argument("--mu", type=float, default=None, help="the model plant's true μ_c (default 0.3)")
-    how.add_argument("--lanes", type=_positive_int, default=1,
+    how.add_argument("--lanes", type=positive_int, default=1,
                      help="batch lanes of the simulation (default 1); 32 reproduces a `dexpush bench` record exactly")
     sensor_args(run)
     episode_args(run, "out/run")
@@ -435,13 +391,13 @@ def build_parser() -> argparse.ArgumentParser:
                        help="comma-separated: known (λ_pred = λ_true), unknown (λ_pred starts at [15, 0, 0])")
     bench.add_argument("--methods", default="mppi,mppi-ukf",
                        help="comma-separated, from mppi, mppi-ukf, gcs (gcs skips task III: no obstacles)")
-    bench.add_argument("--trials", type=_positive_int, default=30, help="seeds 0 … trials−1 (default 30)")
-    bench.add_argument("--seeds", type=_seed_list, default=None, metavar="LIST",
+    bench.add_argument("--trials", type=positive_int, default=30, help="seeds 0 … trials−1 (default 30)")
+    bench.add_argument("--seeds", type=seed_list, default=None, metavar="LIST",
                        help="run these seeds instead, e.g. 7 or 0-4,9 (re-running a seed reproduces its record)")
-    bench.add_argument("--lanes", type=_positive_int, default=BENCH_LANES,
+    bench.add_argument("--lanes", type=positive_int, default=BENCH_LANES,
                        help=f"trials simulated together in one vmapped batch (default {BENCH_LANES})")
     bench.add_argument("--no-figures", action="store_true", help="skip the per-condition trajectory figures")
-    bench.add_argument("--workers", type=_positive_int, default=os.cpu_count() or 1,
+    bench.add_argument("--workers", type=positive_int, default=os.cpu_count() or 1,
                        help="processes, one (task, shape) group each, one XLA thread each (default: the "
                             f"core count, {os.cpu_count() or 1} here)")
     bench.add_argument("--plant", default="model", choices=PLANTS,
@@ -452,14 +408,15 @@ def build_parser() -> argparse.ArgumentParser:
                             "support pressure, mass, pusher radius) seen through random camera s; the camera "
                             "options are then unused")
     sensor_args(bench)
-    bench.add_argument("--max-steps", type=_positive_int, default=MAX_STEPS,
+    bench.add_argument("--max-steps", type=positive_int, default=MAX_STEPS,
                        help=f"control steps before a trial fails (default {MAX_STEPS})")
-    bench.add_argument("--detour", action="store_true",
-                       help="measure the goal distance round the obstacles (CostWeights.detour; "
+    bench.add_argument("--detour", action=argparse.BooleanOptionalAction, default=None,
+                       help="measure the goal distance round the obstacles (default), or straight through them "
+                            "as eq. (9) is written (--no-detour; CostWeights.detour; "
                             "docs/controller.md#going-round-obstacles-detour)")
-    bench.add_argument("--stall-after", type=float, default=None, metavar="SECONDS",
-                       help="restart the planner after this long without progress and contact "
-                            "(ControllerSettings.stall_after_s; docs/controller.md#stalls; default: never)")
+    bench.add_argument("--stall-after", type=stall_time, default=None, metavar="SECONDS|off",
+                       help="restart the planner after this long without progress and contact, or never (off) "
+                            "(ControllerSettings.stall_after_s; docs/controller.md#stalls; default: 4)")
     bench.add_argument("--out", default="out/bench", help="output folder; re-running resumes (default out/bench)")
     bench.add_argument("--quiet", action="store_true", help="no progress output")
     bench.set_defaults(func=_cmd_bench)

@@ -35,6 +35,7 @@ from dexpush.geometry import Shape
 from dexpush.interfaces import Observation
 from dexpush.model import LAMBDA_TRUE, Contour, contact_gap, integrate, step
 from dexpush.mppi import MPPIResult, MPPISettings, mppi_iteration, shift_in_time, slot_durations
+from dexpush.se2 import wrap_angle
 
 __all__ = ["ControllerSettings", "ControllerState", "PushingController", "estimate_step", "plan_step", "policy_init",
            "policy_step", "watch_progress"]
@@ -50,18 +51,26 @@ class ControllerSettings:
     estimate_params: bool = False #: run the UKF (paper Fig. 5) and plan with its estimate
     ukf: UKFSettings = field(default_factory=UKFSettings)
     ukf_substeps: int = 10        #: Euler substeps per period in the UKF's window replay
-    #: restart the planner (zero warm start) when the goal distance d (eq. 9b) has not improved by
-    #: ``stall_progress_m`` for this long (s) out of contact; None (default) never does.
+    #: restart the planner (zero warm start) when the object has come no closer to the goal, in
+    #: position or in heading, for this long (s) out of contact; None never does.
     #: See docs/controller.md#stalls.
-    stall_after_s: float | None = None
-    stall_progress_m: float = 0.005  #: the improvement of d (m) that counts as progress
+    stall_after_s: float | None = 4.0
+    #: progress is an improvement of the position error by this much (m) or of the heading error by
+    #: ``stall_progress_deg``, whichever of the two errors is the larger in these units
+    stall_progress_m: float = 0.005
+    stall_progress_deg: float = 2.0
     #: the stall clock runs only while the pusher is farther than this (m) from the contour ...
     stall_contact_gap_m: float = 0.005
-    #: ... and the object farther than this goal distance d (m): the final approach is slow by nature
+    #: ... and the object is not within both of these of the goal (m, degrees): the final approach
+    #: to the success tolerances (8 mm, 3°) is slow by nature
     stall_min_distance_m: float = 0.015
+    stall_min_heading_deg: float = 5.0
+    #: each restart without progress since the last one makes the next wait this many times longer
+    stall_backoff: float = 2.0
     #: after a stall the planner looks this many times further ahead (every slot Δt_k stretched),
-    #: until the object comes closer again
-    stall_horizon_scale: float = 2.0
+    #: until the object comes closer again; 1 (default) keeps the paper's horizon (measured:
+    #: docs/controller.md#stalls)
+    stall_horizon_scale: float = 1.0
 
     def __post_init__(self) -> None:
         for name, kind in (("mppi", MPPISettings), ("weights", CostWeights), ("ukf", UKFSettings)):
@@ -76,7 +85,11 @@ class ControllerSettings:
             check_positive("stall_after_s", self.stall_after_s, "s, or None")
         for name in ("stall_progress_m", "stall_contact_gap_m"):
             check_positive(name, getattr(self, name), "m")
+        check_positive("stall_progress_deg", self.stall_progress_deg, "degrees")
         check_nonnegative("stall_min_distance_m", self.stall_min_distance_m, "m")
+        check_nonnegative("stall_min_heading_deg", self.stall_min_heading_deg, "degrees")
+        if not self.stall_backoff >= 1.0:
+            raise ValueError(f"stall_backoff must be >= 1, got {self.stall_backoff!r}")
         if not self.stall_horizon_scale >= 1.0:
             raise ValueError(f"stall_horizon_scale must be >= 1, got {self.stall_horizon_scale!r}")
 
@@ -89,9 +102,11 @@ class ControllerState(NamedTuple):
     params: jnp.ndarray          #: (3,) λ_pred the next iteration plans with
     estimator: EstimatorState    #: the UKF's λ estimate and observation window
     mu: jnp.ndarray              #: μ_c the model assumes (the estimate, with ``UKFSettings.estimate_mu``)
-    best: jnp.ndarray            #: the smallest goal distance d (m) planned from so far, less progress since
-    idle: jnp.ndarray            #: time (s) since d last improved by ``stall_progress_m``
+    #: the smallest error E (:func:`watch_progress`) planned from so far, less progress since
+    best: jnp.ndarray
+    idle: jnp.ndarray            #: time (s) the stall clock has run since the last progress or restart
     stalls: jnp.ndarray          #: planner restarts after a stall (``ControllerSettings.stall_after_s``)
+    streak: jnp.ndarray          #: restarts since the last progress (the clock's backoff exponent)
     stretch: jnp.ndarray         #: the horizon's current scale: 1, or ``stall_horizon_scale`` after a stall
 
 
@@ -103,7 +118,8 @@ def policy_init(params: object, settings: ControllerSettings, seed: int | jnp.nd
     lam = jnp.asarray(params, jnp.float32)
     return ControllerState(jnp.zeros((settings.mppi.horizon, 2), jnp.float32), jax.random.PRNGKey(seed), lam,
                            estimator_init(lam, settings.ukf, box, settings.mu), jnp.float32(settings.mu),
-                           jnp.float32(jnp.inf), jnp.float32(0.0), jnp.int32(0), jnp.float32(1.0))
+                           jnp.float32(jnp.inf), jnp.float32(0.0), jnp.int32(0), jnp.int32(0),
+                           jnp.float32(1.0))
 
 
 def estimate_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray | bool, *,
@@ -148,28 +164,46 @@ def watch_progress(state: ControllerState, x: jnp.ndarray, *, contour: Contour, 
                    settings: ControllerSettings) -> tuple[ControllerState, jnp.ndarray]:
     """Stall detection, once per control period: (state, whether to restart the planner now).
 
-    A stall is no progress toward the goal and no contact for a while (issue 15).
-    d = √d²(q_sb, q_g) (eq. 9b, round the obstacles) is compared with the best d so far:
-    an improvement of at least ``stall_progress_m`` restarts the clock ``idle``, which
-    otherwise runs while the pusher is more than ``stall_contact_gap_m`` off the contour
-    and d is above ``stall_min_distance_m`` (the final approach to the 8-mm tolerance is
-    slow by nature). When ``idle`` reaches ``stall_after_s`` (the pusher has hovered
-    beside the object that long), the planner restarts from a zero warm start with its
-    horizon stretched ``stall_horizon_scale`` times (:func:`dexpush.mppi.slot_durations`:
-    a push that needs a long walk round the object first comes into view), and the clock
-    restarts. The next progress brings the horizon back to the paper's. Pure and jit-able.
+    A stall is no progress toward the goal and no contact for a while (issue 15). Progress is
+    measured in the success test's own terms, position and heading each in its own unit: with
+    the position error e_p (the length of the path to the goal, round the obstacles with
+    ``CostWeights.detour``: :func:`dexpush.cost.goal_distance_sq` with c = 0) and the heading
+    error e_θ = |θ − θ_g|, the error is
+
+        E = max(e_p / stall_progress_m, e_θ / stall_progress_deg),
+
+    and progress is a new best E, lower by at least 1 than the best so far: 5 mm closer, or
+    2° less turned where the heading is the larger error (a slow final turn is progress,
+    though it hardly moves d of eq. 9b). Progress restarts the clock ``idle``, which
+    otherwise runs while the pusher is more than ``stall_contact_gap_m`` off the contour and
+    the object is not within both ``stall_min_distance_m`` and ``stall_min_heading_deg`` of
+    the goal. When ``idle`` reaches ``stall_after_s`` · ``stall_backoff``^streak (streak:
+    restarts since the last progress, so that a walk round the object that takes longer
+    than one stall time is not cut short again and again), the planner restarts from a zero
+    warm start with its horizon stretched ``stall_horizon_scale`` times
+    (:func:`dexpush.mppi.slot_durations`: a push that needs a long walk round the object
+    first comes into view), and the clock restarts. The horizon is the paper's again at the
+    next progress, or as soon as the object is near the goal (the endgame needs the fine
+    slots). Pure and jit-able.
     """
     if settings.stall_after_s is None:
         return state, jnp.bool_(False)
     T = settings.mppi.control_period
-    d = jnp.sqrt(goal_distance_sq(x, scene, settings.weights.c))
-    improved = d <= state.best - settings.stall_progress_m
-    away = (contact_gap(contour, x) > settings.stall_contact_gap_m) & (d > settings.stall_min_distance_m)
+    e_p = jnp.sqrt(goal_distance_sq(x, scene, 0.0))
+    e_th = jnp.abs(wrap_angle(x[2] - scene.goal[2], jnp))
+    error = jnp.maximum(e_p / settings.stall_progress_m, e_th / np.radians(settings.stall_progress_deg))
+    improved = error <= state.best - 1.0
+    near = (e_p <= settings.stall_min_distance_m) & (e_th <= np.radians(settings.stall_min_heading_deg))
+    away = (contact_gap(contour, x) > settings.stall_contact_gap_m) & ~near
     idle = jnp.where(improved, 0.0, state.idle + jnp.where(away, T, 0.0))
-    stalled = idle >= settings.stall_after_s - 0.5 * T    # (float32 sums of T)
-    stretch = jnp.where(stalled, jnp.float32(settings.stall_horizon_scale), jnp.where(improved, 1.0, state.stretch))
-    return state._replace(best=jnp.where(improved, d, state.best), idle=jnp.where(stalled, 0.0, idle),
-                          stalls=state.stalls + stalled.astype(jnp.int32), stretch=stretch), stalled
+    streak = jnp.where(improved, 0, state.streak)
+    patience = settings.stall_after_s * jnp.float32(settings.stall_backoff) ** streak.astype(jnp.float32)
+    stalled = idle >= patience - 0.5 * T    # (float32 sums of T)
+    scale = jnp.float32(settings.stall_horizon_scale)
+    stretch = jnp.where(stalled, scale, jnp.where(improved | near, 1.0, state.stretch))
+    restarts = stalled.astype(jnp.int32)
+    return state._replace(best=jnp.where(improved, error, state.best), idle=jnp.where(stalled, 0.0, idle),
+                          stalls=state.stalls + restarts, streak=streak + restarts, stretch=stretch), stalled
 
 
 def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene: Scene,

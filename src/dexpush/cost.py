@@ -48,9 +48,9 @@ class CostWeights:
     #: not become a touch. A trial still fails only on a real touch (radius as given).
     obstacle_margin_m: float = 0.01
     #: measure the goal distance of d² round the obstacles (:func:`detour_length_sq`) instead of
-    #: straight through them; False (default) is the paper's eq. (9) as written.
+    #: straight through them (default); False is the paper's eq. (9) as written.
     #: See docs/controller.md#going-round-obstacles-detour.
-    detour: bool = False
+    detour: bool = True
 
     def __post_init__(self) -> None:
         for name in ("q_f", "q_r1", "q_r2", "c"):
