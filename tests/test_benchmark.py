@@ -58,26 +58,32 @@ def test_a_folder_refuses_runs_with_other_settings(tmp_path: Path) -> None:
                  "--seeds", "0", "--max-steps", "9", "--lanes", "2", "--quiet", "--out", str(tmp_path)]) == 2
     # a folder started before an option existed was made without it: it is adopted with the option off
     # (the stall watch and the detour are on by default now), and with a newer setting's default
-    del saved["settings"]["controller"]["stall_after_s"]
+    for key in ("stall_after_s", "stall_backoff", "endgame_temperature"):
+        del saved["settings"]["controller"][key]
     del saved["settings"]["controller"]["weights"]["detour"]
-    del saved["settings"]["controller"]["stall_backoff"]
     (tmp_path / "settings.json").write_text(json.dumps(saved))
-    with pytest.raises(ValueError, match=r"stall_after_s: None there, 4.0 now; controller.weights.detour: False there"):
+    with pytest.raises(ValueError, match=r"endgame_temperature: None there, 0.005 now; controller.stall_after_s: "
+                                         r"None there, 4.0 now; controller.weights.detour: False there"):
         run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
                       figures=False)
     run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
-                  figures=False, settings=ControllerSettings(weights=CostWeights(detour=False), stall_after_s=None))
+                  figures=False, settings=ControllerSettings(weights=CostWeights(detour=False), stall_after_s=None,
+                                                             endgame_temperature=None))
 
 
 def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path: Path) -> None:
     assert main(["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi", "--seeds", "0",
-                 "--max-steps", "2", "--lanes", "1", "--no-detour", "--stall-after", "off", "--no-figures", "--quiet",
-                 "--out", str(tmp_path)]) == 0
+                 "--max-steps", "2", "--lanes", "1", "--no-detour", "--stall-after", "off", "--temperature", "0.05",
+                 "--endgame-temperature", "off", "--no-figures", "--quiet", "--out", str(tmp_path)]) == 0
     controller = json.loads((tmp_path / "settings.json").read_text())["settings"]["controller"]
     assert controller["weights"]["detour"] is False and controller["stall_after_s"] is None
-    assert "--no-detour --stall-after off" in (tmp_path / "benchmark.md").read_text()
-    with pytest.raises(SystemExit):
-        main(["bench", "--stall-after", "0", "--out", str(tmp_path)])
+    assert controller["mppi"]["temperature"] == 0.05 and controller["endgame_temperature"] is None
+    command = "--no-detour --stall-after off --temperature 0.05 --endgame-temperature off"
+    assert command in (tmp_path / "benchmark.md").read_text()
+    for bad in (["--stall-after", "0"], ["--temperature", "0"], ["--temperature", "nan"],
+                ["--endgame-temperature", "-1"]):
+        with pytest.raises(SystemExit):
+            main(["bench", *bad, "--out", str(tmp_path)])
 
 
 def test_an_interrupted_run_keeps_every_finished_trials_trajectory(tmp_path: Path, monkeypatch) -> None:

@@ -118,3 +118,15 @@ def test_controller_rejects_bad_construction() -> None:
         PushingController(Shape.rectangle(), goal=(0, 0, 0), params=(0.0, 0.0, 0.0))
     with pytest.raises(TypeError, match="Shape"):
         PushingController("rect", goal=(0, 0, 0))
+
+
+def test_a_colder_temperature_weights_fewer_samples() -> None:
+    """τ passed per iteration replaces ``MPPISettings.temperature``: the same τ gives the same update,
+    and a colder one concentrates the weights (fewer effective samples, down to the best one)."""
+    planner = point_mass_planner(num_samples=256)
+    args = (jax.random.PRNGKey(1), jnp.zeros((25, 2)), jnp.array([0.02, 0.01]), None, jnp.zeros(2))
+    default = planner(*args)
+    same = planner(*args, temperature=MPPISettings().temperature)
+    np.testing.assert_array_equal(default.sequence, same.sequence)
+    ess = [float(planner(*args, temperature=t).ess) for t in (0.5, 0.1, 0.02, 1e-7)]
+    assert ess[0] > ess[1] > ess[2] > ess[3] and ess[3] == pytest.approx(1.0, abs=1e-3)

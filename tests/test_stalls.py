@@ -1,4 +1,5 @@
-"""Stall detection: the planner restarts when the object stops coming closer to the goal."""
+"""Stall detection (the planner restarts when the object stops coming closer to the goal) and the
+endgame temperature."""
 
 from __future__ import annotations
 
@@ -128,6 +129,19 @@ def test_the_watch_is_on_by_default_and_keeps_the_papers_horizon() -> None:
     assert s.stall_after_s == 4.0 and s.stall_horizon_scale == 1.0 and s.weights.detour
 
 
+def test_without_a_stretch_the_plan_never_depends_on_the_stretch_field() -> None:
+    """With ``stall_horizon_scale`` = 1 the slots stay constants of the program (a traced per-lane
+    scale made the batched step 2.2x slower); a stale ``stretch`` in the state changes nothing."""
+    s = ControllerSettings()
+    plan = jax.jit(functools.partial(plan_step, contour=CONTOUR, scene=SCENE, settings=s))
+    state, x = policy_init(LAMBDA_TRUE, s, 3), _state_at(0.0, pusher_gap=0.0)
+    state = state._replace(best=jnp.float32(0.0))      # no progress now, so a stretch would be kept
+    a = plan(state, x)
+    b = plan(state._replace(stretch=jnp.float32(2.0)), x)
+    np.testing.assert_array_equal(a[1], b[1])
+    np.testing.assert_array_equal(a[0].sequence, b[0].sequence)
+
+
 def test_stall_settings_are_checked() -> None:
     with pytest.raises(ValueError, match="stall_after_s"):
         ControllerSettings(stall_after_s=0.0)
@@ -141,3 +155,20 @@ def test_stall_settings_are_checked() -> None:
         ControllerSettings(stall_progress_deg=0.0)
     with pytest.raises(ValueError, match="stall_backoff"):
         ControllerSettings(stall_backoff=0.9)
+
+
+def _plan(settings: ControllerSettings, x: jnp.ndarray) -> np.ndarray:
+    plan = jax.jit(functools.partial(plan_step, contour=CONTOUR, scene=SCENE, settings=settings))
+    return np.asarray(plan(policy_init(LAMBDA_TRUE, settings, 5), x)[0].sequence)
+
+
+def test_near_the_goal_the_plan_weights_its_samples_with_the_endgame_temperature() -> None:
+    endgame = ControllerSettings(endgame_temperature=0.001, stall_after_s=None)
+    off = dataclasses.replace(endgame, endgame_temperature=None)
+    cold = dataclasses.replace(off, mppi=dataclasses.replace(off.mppi, temperature=0.001))
+    near, far = _state_at(0.6 - 0.03, pusher_gap=0.0), _state_at(0.6 - 0.05, pusher_gap=0.0)
+    np.testing.assert_array_equal(_plan(endgame, near), _plan(cold, near))       # 3 cm from the goal
+    np.testing.assert_array_equal(_plan(endgame, far), _plan(off, far))          # 5 cm: the usual τ
+    assert not np.array_equal(_plan(endgame, near), _plan(off, near))
+    with pytest.raises(ValueError, match="endgame_temperature"):
+        ControllerSettings(endgame_temperature=0.0)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 
-__all__ = ["floats", "positive_int", "seed", "seed_list", "stall_time"]
+__all__ = ["floats", "positive_float", "positive_int", "positive_or_off", "seed", "seed_list", "stall_time"]
 
 
 def floats(count: int, what: str):
@@ -43,16 +43,30 @@ def seed_list(text: str) -> list[int]:
     return sorted(seeds)
 
 
-def stall_time(text: str) -> float | str:
-    """``--stall-after``: seconds > 0, or "off"."""
-    if text.strip().lower() in ("off", "never", "none"):
-        return "off"
+def positive_or_off(what: str):
+    """An argparse type: a finite number > 0 (``what`` says which), or "off"."""
+    def parse(text: str) -> float | str:
+        if text.strip().lower() in ("off", "never", "none"):
+            return "off"
+        try:
+            return positive_float(text)
+        except argparse.ArgumentTypeError:
+            raise argparse.ArgumentTypeError(f"must be {what} > 0, or off; got {text!r}") from None
+    return parse
+
+
+#: ``--stall-after``: seconds > 0, or "off"
+stall_time = positive_or_off("a time in seconds")
+
+
+def positive_float(text: str) -> float:
+    """A finite number > 0."""
     try:
         v = float(text)
     except ValueError:
         v = float("nan")
-    if not v > 0 or v == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a time in seconds > 0, or off; got {text!r}")
+    if not 0 < v < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
     return v
 
 

@@ -19,9 +19,10 @@ import os
 import sys
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
-from dexpush.arguments import floats, positive_int, seed, seed_list, stall_time
+from dexpush.arguments import floats, positive_float, positive_int, positive_or_off, seed, seed_list, stall_time
 from dexpush.benchmark import BENCH_LANES
 from dexpush.records import CONDITION_KEYS
 from dexpush.registry import ALL_METHODS, PARAMS, PLANTS, SHAPES
@@ -246,6 +247,11 @@ def _sensor_text(args: argparse.Namespace) -> str:
     return "".join(parts)
 
 
+def _or_off(value: float | str | None, default: float | None) -> float | None:
+    """A ``positive_or_off`` flag's value as a setting: the default when not given, None for off."""
+    return default if value is None else None if value == "off" else value
+
+
 def _cmd_bench(args: argparse.Namespace) -> dict:
     import datetime
     import platform
@@ -268,14 +274,19 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
         if args.plant not in ("physics", "physics-random"):
             raise ValueError("--randomize randomises the physics plant's world: use it with --plant physics")
         args.plant = "physics-random"
-    settings, options = None, ""
-    if args.detour is not None or args.stall_after is not None:
+    # the controller options given on the command line (None: not given, so the default)
+    flags = {"--detour": args.detour, "--stall-after": args.stall_after, "--temperature": args.temperature,
+             "--endgame-temperature": args.endgame_temperature}
+    settings = None
+    if any(v is not None for v in flags.values()):
         default = ControllerSettings()
-        detour = default.weights.detour if args.detour is None else args.detour
-        stall = {None: default.stall_after_s, "off": None}.get(args.stall_after, args.stall_after)
-        settings = ControllerSettings(weights=CostWeights(detour=detour), stall_after_s=stall)
-        options = ("" if args.detour is None else " --detour" if args.detour else " --no-detour") + (
-            "" if args.stall_after is None else f" --stall-after {'off' if stall is None else f'{stall:g}'}")
+        weights = CostWeights(detour=default.weights.detour if args.detour is None else args.detour)
+        mppi = default.mppi if args.temperature is None else replace(default.mppi, temperature=args.temperature)
+        settings = replace(default, weights=weights, mppi=mppi,
+                           stall_after_s=_or_off(args.stall_after, default.stall_after_s),
+                           endgame_temperature=_or_off(args.endgame_temperature, default.endgame_temperature))
+    options = "".join((" --detour" if v else " --no-detour") if k == "--detour" else
+                      f" {k} {v if v == 'off' else f'{v:g}'}" for k, v in flags.items() if v is not None)
     t0 = time.perf_counter()
     records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
                             lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures,
@@ -417,6 +428,13 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--stall-after", type=stall_time, default=None, metavar="SECONDS|off",
                        help="restart the planner after this long without progress and contact, or never (off) "
                             "(ControllerSettings.stall_after_s; docs/controller.md#stalls; default: 4)")
+    bench.add_argument("--temperature", type=positive_float, default=None, metavar="TAU",
+                       help="MPPI's relative temperature τ: λ = τ·(median − min of the sampled costs) "
+                            "(MPPISettings.temperature; docs/controller.md; default: 0.02)")
+    bench.add_argument("--endgame-temperature", type=positive_or_off("a temperature"), default=None,
+                       metavar="TAU|off", help="τ within 4 cm of the goal, or the same τ everywhere (off) "
+                       "(ControllerSettings.endgame_temperature; docs/controller.md#the-endgame-temperature; "
+                       "default: 0.005)")
     bench.add_argument("--out", default="out/bench", help="output folder; re-running resumes (default out/bench)")
     bench.add_argument("--quiet", action="store_true", help="no progress output")
     bench.set_defaults(func=_cmd_bench)

@@ -71,6 +71,12 @@ class ControllerSettings:
     #: until the object comes closer again; 1 (default) keeps the paper's horizon (measured:
     #: docs/controller.md#stalls)
     stall_horizon_scale: float = 1.0
+    #: MPPI's relative temperature τ while the object is within ``endgame_distance_m`` of the goal
+    #: (position error, round the obstacles); None keeps ``mppi.temperature`` everywhere. A last
+    #: push of 1–3 cm is found by few samples, and at τ = 0.02 their weight was shared with many that
+    #: hover (docs/controller.md#the-endgame-temperature)
+    endgame_temperature: float | None = 0.005
+    endgame_distance_m: float = 0.04
 
     def __post_init__(self) -> None:
         for name, kind in (("mppi", MPPISettings), ("weights", CostWeights), ("ukf", UKFSettings)):
@@ -92,6 +98,9 @@ class ControllerSettings:
             raise ValueError(f"stall_backoff must be >= 1, got {self.stall_backoff!r}")
         if not self.stall_horizon_scale >= 1.0:
             raise ValueError(f"stall_horizon_scale must be >= 1, got {self.stall_horizon_scale!r}")
+        if self.endgame_temperature is not None:
+            check_positive("endgame_temperature", self.endgame_temperature, "or None")
+        check_nonnegative("endgame_distance_m", self.endgame_distance_m, "m")
 
 
 class ControllerState(NamedTuple):
@@ -206,6 +215,14 @@ def watch_progress(state: ControllerState, x: jnp.ndarray, *, contour: Contour, 
                           stalls=state.stalls + restarts, streak=streak + restarts, stretch=stretch), stalled
 
 
+def _temperature(x: jnp.ndarray, scene: Scene, settings: ControllerSettings) -> jnp.ndarray | None:
+    """τ for this iteration: ``endgame_temperature`` within ``endgame_distance_m`` of the goal."""
+    if settings.endgame_temperature is None:
+        return None
+    near = goal_distance_sq(x, scene, 0.0) <= settings.endgame_distance_m ** 2
+    return jnp.where(near, jnp.float32(settings.endgame_temperature), jnp.float32(settings.mppi.temperature))
+
+
 def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene: Scene,
               settings: ControllerSettings) -> tuple[ControllerState, jnp.ndarray, MPPIResult]:
     """One MPPI iteration (eq. 9–10) from state ``x`` with λ_pred. Pure and jit-able.
@@ -213,20 +230,25 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
     The command is the first input of the new sequence, clipped to ±v_max/√2 (zero, and a
     reset sequence, should it ever be non-finite); the sequence is shifted by the control
     period as the next warm start. A stall (:func:`watch_progress`) zeroes the warm start first.
+    Within ``endgame_distance_m`` of the goal the iteration weights its samples with
+    ``endgame_temperature``.
     """
     mp = settings.mppi
     x = jnp.asarray(x, jnp.float32)
-    stretch = 1.0                       # without the watch the slots stay constants of the program
-    if settings.stall_after_s is not None:
+    stretch = 1.0   # a Python constant keeps the slots constants of the program: a traced per-lane
+    if settings.stall_after_s is not None:      # scale made the batched step 2.2x slower (performance.md)
         state, stalled = watch_progress(state, x, contour=contour, scene=scene, settings=settings)
-        state, stretch = state._replace(sequence=jnp.where(stalled, 0.0, state.sequence)), state.stretch
+        state = state._replace(sequence=jnp.where(stalled, 0.0, state.sequence))
+        if settings.stall_horizon_scale != 1.0:
+            stretch = state.stretch
     key, sub = jax.random.split(state.key)
     weights, mu = settings.weights, state.mu
     result = mppi_iteration(
         sub, state.sequence, tuple(x[i] for i in range(5)), state.params, scene,   # rollouts carry a tuple
         dynamics=lambda xs, u, dt, p: step(contour, xs, u, dt, p, mu),
         running_cost=lambda xs, sc: running_cost(xs, sc, weights),
-        terminal_cost=lambda xs, sc: terminal_cost(xs, sc, weights), settings=mp, horizon_scale=stretch)
+        terminal_cost=lambda xs, sc: terminal_cost(xs, sc, weights), settings=mp, horizon_scale=stretch,
+        temperature=_temperature(x, scene, settings))
     finite = jnp.all(jnp.isfinite(result.sequence))
     u = jnp.where(finite, jnp.clip(result.sequence[0], -mp.v_clip, mp.v_clip), 0.0)
     durations = slot_durations(mp, stretch)

@@ -29,7 +29,8 @@ Choices the paper leaves to its reference [8] (measured in ``docs/controller.md`
 * the temperature is *relative*: λ = τ·(median − min of the sampled costs), τ = 0.02.
   The costs of eq. (9) span eight orders of magnitude between "0.6 m away" and "2 mm
   away", and C_pen = 1e13 makes the mean useless; the median-to-best spread keeps the
-  weighting equally selective everywhere.
+  weighting equally selective everywhere. A caller may pass another τ per iteration
+  (the controller does near the goal: ``ControllerSettings.endgame_temperature``).
 * control cost q_u·Σ Δt_k‖v_k‖² with q_u = 1: an effort tie-breaker worth ~0.03 cost
   units for a full-speed 3-s horizon, small against millimetre goal errors.
 * warm start: the nominal sequence is a piecewise-constant function of time on the
@@ -149,11 +150,13 @@ def shift_in_time(U: jnp.ndarray, durations: jnp.ndarray, shift: float) -> jnp.n
 
 def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any, context: Any, *,
                    dynamics: Dynamics, running_cost: Cost, terminal_cost: Cost,
-                   settings: MPPISettings, horizon_scale: jnp.ndarray | float = 1.0) -> MPPIResult:
+                   settings: MPPISettings, horizon_scale: jnp.ndarray | float = 1.0,
+                   temperature: jnp.ndarray | float | None = None) -> MPPIResult:
     """One MPPI update of the nominal sequence U (N_p, 2) from state x0. Pure and jit-able.
 
     ``x0`` is any pytree of arrays (one state); each leaf gets a leading sample axis K.
     ``horizon_scale`` stretches the slots after the first (:func:`slot_durations`).
+    ``temperature``, if given, is this iteration's τ in place of ``settings.temperature``.
     """
     K, N = settings.num_samples, settings.horizon
     dtype = U.dtype
@@ -186,7 +189,8 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
     (xN, total), _ = jax.lax.scan(rollout_step, (x, jnp.zeros(K, dtype)), (jnp.swapaxes(V, 0, 1), dts))
     S = total + terminal_cost(xN, context)
     S_min = jnp.min(S)
-    lam = settings.temperature * (_median(S) - S_min) + 1e-12
+    tau = settings.temperature if temperature is None else temperature
+    lam = tau * (_median(S) - S_min) + 1e-12
     w = jax.nn.softmax(-(S - S_min) / lam)
     U_new = jnp.einsum("k,knd->nd", w, V)
     return MPPIResult(U_new, S_min, S[0], 1.0 / jnp.sum(w * w))
