@@ -60,28 +60,31 @@ def test_a_folder_refuses_runs_with_other_settings(tmp_path: Path) -> None:
     # (the stall watch and the detour are on by default now), and with a newer setting's default
     for key in ("stall_after_s", "stall_backoff", "endgame_temperature"):
         del saved["settings"]["controller"][key]
-    del saved["settings"]["controller"]["weights"]["detour"]
+    for key in ("detour", "q_clearance", "clearance_band_m"):
+        del saved["settings"]["controller"]["weights"][key]
     (tmp_path / "settings.json").write_text(json.dumps(saved))
     with pytest.raises(ValueError, match=r"endgame_temperature: None there, 0.005 now; controller.stall_after_s: "
                                          r"None there, 4.0 now; controller.weights.detour: False there"):
         run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
                       figures=False)
     run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
-                  figures=False, settings=ControllerSettings(weights=CostWeights(detour=False), stall_after_s=None,
-                                                             endgame_temperature=None))
+                  figures=False, settings=ControllerSettings(weights=CostWeights(detour=False, q_clearance=0.0),
+                                                             stall_after_s=None, endgame_temperature=None))
 
 
 def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path: Path) -> None:
     assert main(["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi", "--seeds", "0",
                  "--max-steps", "2", "--lanes", "1", "--no-detour", "--stall-after", "off", "--temperature", "0.05",
-                 "--endgame-temperature", "off", "--no-figures", "--quiet", "--out", str(tmp_path)]) == 0
+                 "--endgame-temperature", "off", "--clearance", "off", "--no-figures", "--quiet",
+                 "--out", str(tmp_path)]) == 0
     controller = json.loads((tmp_path / "settings.json").read_text())["settings"]["controller"]
     assert controller["weights"]["detour"] is False and controller["stall_after_s"] is None
     assert controller["mppi"]["temperature"] == 0.05 and controller["endgame_temperature"] is None
-    command = "--no-detour --stall-after off --temperature 0.05 --endgame-temperature off"
+    assert controller["weights"]["q_clearance"] == 0.0
+    command = "--no-detour --stall-after off --temperature 0.05 --endgame-temperature off --clearance off"
     assert command in (tmp_path / "benchmark.md").read_text()
     for bad in (["--stall-after", "0"], ["--temperature", "0"], ["--temperature", "nan"],
-                ["--endgame-temperature", "-1"]):
+                ["--endgame-temperature", "-1"], ["--clearance", "0"]):
         with pytest.raises(SystemExit):
             main(["bench", *bad, "--out", str(tmp_path)])
 
@@ -239,6 +242,19 @@ def test_records_label_a_trajectory_in_blocks_as_they_would_unpadded() -> None:
     in_contact = modes != MODE_NAMES.index("free")
     assert ep.record.contact_switches == int(np.sum(in_contact[1:] != in_contact[:-1])) > 0
     assert ep.record.collisions == int(hits.sum()) > 0
+    # the record's clearance is the trajectory's smallest gap: below zero, since it touches
+    from dexpush.cost import clearance
+    from dexpush.records import summarize
+    gaps = np.asarray(clearance(jnp.asarray(X[1:], jnp.float32), Scene.make(shape, task.goal, task.obstacles)))
+    assert ep.record.clearance_m == pytest.approx(float(gaps.min()), abs=1e-5) and ep.record.clearance_m < 0
+    clear = make_episode(task, "rect", shape, "known", "mppi", TrialResult(TrialSpec(1), False, X[:40], U[:39],
+                                                                          np.zeros((39, 3)), np.ones(39)), 16)
+    assert clear.record.clearance_m > 0
+    assert summarize([ep.summary(), clear.summary()])["clearance_m"] == pytest.approx(
+        [ep.record.clearance_m, 0.5 * (ep.record.clearance_m + clear.record.clearance_m)], abs=1e-5)
+    result = TrialResult(TrialSpec(0), False, X, U, np.zeros((n, 3)), np.ones(n))
+    no_obstacle = make_episode(get_task("I"), "rect", shape, "known", "mppi", result, 16)
+    assert no_obstacle.record.clearance_m is None and summarize([no_obstacle.summary()])["clearance_m"] is None
 
 
 def test_longest_groups_run_first() -> None:

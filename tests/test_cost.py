@@ -127,3 +127,79 @@ def test_without_detour_or_obstacles_the_cost_is_the_papers() -> None:
     near_goal = jnp.asarray([[0.58, 0.01, 0.02, 0.4, 0.0]], jnp.float32)
     np.testing.assert_allclose(terminal_cost(near_goal, on, DETOUR), terminal_cost(near_goal, off, plain),
                                rtol=1e-5)
+
+
+def _clearance_reference(shape: Shape, x: np.ndarray, disc: np.ndarray) -> float:
+    """The gap between a disc and the footprint or the pusher, written plainly in float64: each
+    convex piece of the footprint in the world, the point-in-polygon test by cross products, the
+    distance by projection on every edge."""
+    c, s = np.cos(x[2]), np.sin(x[2])
+    centre, r = disc[:2], disc[2]
+    body = np.inf
+    for poly in shape.polygons:
+        world = x[:2] + poly @ np.array([[c, s], [-s, c]])
+        a, b = world, np.roll(world, -1, axis=0)
+        e, ap = b - a, centre - a
+        if np.all(e[:, 0] * ap[:, 1] - e[:, 1] * ap[:, 0] >= 0):      # inside this CCW piece
+            return -r
+        t = np.clip(np.sum(ap * e, 1) / np.sum(e * e, 1), 0.0, 1.0)
+        body = min(body, float(np.min(np.linalg.norm(ap - t[:, None] * e, axis=1))) - r)
+    return min(body, float(np.linalg.norm(x[3:] - centre)) - r - shape.pusher_radius)
+
+
+@given(st.floats(-0.35, 0.35), st.floats(-0.35, 0.35), st.floats(-np.pi, np.pi), st.floats(0.01, 0.08),
+       st.sampled_from(["rect", "tee"]))
+def test_clearance_matches_a_float64_reference(ox: float, oy: float, th: float, r: float, name: str) -> None:
+    from dexpush.cost import clearance, collides
+
+    shape = Shape.tee() if name == "tee" else Shape.rectangle()
+    x = np.array([0.01, -0.02, th, 0.15 * np.cos(3 * th), 0.15 * np.sin(3 * th)])
+    disc = np.array([ox, oy, r])
+    scene = Scene.make(shape, (0.6, 0.0, 0.0), (disc,))
+    got = float(clearance(jnp.asarray(x, jnp.float32), scene))
+    want = _clearance_reference(shape, x, disc)
+    assert got == pytest.approx(want, abs=2e-6)
+    if abs(want) > 1e-5:          # a touch is exactly a gap below zero
+        assert bool(collides(jnp.asarray(x, jnp.float32), scene)) == (want < 0)
+
+
+def test_clearance_is_the_same_wherever_the_scene_is_put() -> None:
+    from dexpush.cost import clearance
+
+    shape, x, disc = Shape.tee(), np.array([0.05, 0.02, 0.7, -0.2, 0.05]), np.array([0.25, 0.1, 0.05])
+    base = float(clearance(jnp.asarray(x), Scene.make(shape, (0.6, 0, 0), (disc,))))
+    for dx, dy, a in ((0.3, -0.2, 0.0), (-1.0, 2.0, 1.3), (0.0, 0.0, -2.5)):
+        c, s = np.cos(a), np.sin(a)
+        R = np.array([[c, -s], [s, c]])
+        moved = np.concatenate([R @ x[:2] + (dx, dy), [x[2] + a], R @ x[3:] + (dx, dy)])
+        moved_disc = np.concatenate([R @ disc[:2] + (dx, dy), disc[2:]])
+        got = float(clearance(jnp.asarray(moved), Scene.make(shape, (0.6, 0, 0), (moved_disc,))))
+        assert got == pytest.approx(base, abs=2e-6)
+    assert float(clearance(jnp.asarray(x), Scene.make(shape, (0.6, 0, 0)))) == np.inf
+
+
+def test_the_clearance_band_charges_q_at_the_margin_and_nothing_beyond_the_band() -> None:
+    from dexpush.cost import obstacle_cost
+
+    shape, w = Shape.rectangle(), CostWeights(q_clearance=10.0)
+    scene = Scene.make(shape, (0.6, 0, 0), ((0.30, 0.0, 0.05),), w)
+    face = 0.30 - 0.10 - 0.05 - w.obstacle_margin_m            # the box's right face at the margin
+    gaps = np.linspace(1e-4, w.clearance_band_m + 0.01, 40)
+    box = jnp.asarray([[face - g, 0.0, 0.0, -0.3, 0.0] for g in gaps], jnp.float32)
+    band = np.asarray(obstacle_cost(box, scene, w))
+    inside = gaps < w.clearance_band_m
+    np.testing.assert_allclose(band[inside], w.q_clearance * (1 - gaps[inside] / w.clearance_band_m) ** 2,
+                               rtol=1e-3, atol=1e-4)
+    assert np.all(band[~inside] == 0.0) and np.all(np.diff(band) <= 0)
+    # the pusher is kept clear the same way
+    pusher = jnp.asarray([0.0, 0.0, 0.0, 0.30, 0.05 + shape.pusher_radius + w.obstacle_margin_m + 0.01])
+    assert float(obstacle_cost(pusher, scene, w)) == pytest.approx(w.q_clearance * (1 - 0.01 / 0.03) ** 2, rel=1e-3)
+    # off, it is the collision penalty (9e) alone
+    off = CostWeights(q_clearance=0.0)
+    assert np.all(np.asarray(obstacle_cost(box, scene, off)) == 0.0)
+    inside_margin = jnp.asarray([face + 0.005, 0.0, 0.0, -0.3, 0.0])
+    assert float(obstacle_cost(inside_margin, scene, off)) == pytest.approx(off.C_pen)
+    with pytest.raises(ValueError, match="clearance_band_m"):
+        CostWeights(clearance_band_m=0.0)
+    with pytest.raises(ValueError, match="q_clearance"):
+        CostWeights(q_clearance=-1.0)

@@ -4,13 +4,17 @@
     φ(x)  = q_f · d²(q_sb, q_g)                                                     (9b)
     l(x)  = q_r1 · d²(q_sb, q_g) + q_r2 · ReLU(‖p_sc − p_sb‖ − r_s)                (9c, 9d)
     P(x)  = C_pen if isCollision(x, margin) else 0                                  (9e)
+    B(x)  = q_clearance · Σ_m clip(1 − g_m / b, 0, 1)²      (the clearance band; not in the paper)
     d²(q₁, q₂) = ‖Δp‖² + c · (1 − cos Δθ)        ("decoupled distance")
 
 Obstacles are discs ``(c_x, c_y, radius)``. ``isCollision`` covers both the object's
 footprint (not inflated) and the pusher disc (docs/conventions.md#controller). In the
 cost the discs are grown by ``CostWeights.obstacle_margin_m`` (default 1 cm), a safety
 margin for prediction error on a plant that is not the model; the reported collisions
-(and a failed Task III trial) use the discs as given.
+(and a failed Task III trial) use the discs as given. B(x), added to l(x), charges a state
+whose object or pusher passes within a band b (default 3 cm) beyond that margin, g_m being
+the gap beyond the margin to disc m: the planner keeps clear by more than the margin where
+that costs little (docs/controller.md#clearance).
 """
 
 from __future__ import annotations
@@ -26,8 +30,9 @@ from dexpush.checks import check_nonnegative, check_positive
 from dexpush.geometry import Shape
 from dexpush.model import State, components
 
-__all__ = ["CostWeights", "Scene", "collides", "collides_jit", "decoupled_distance_sq", "detour_length_sq",
-           "goal_distance_sq", "running_cost", "terminal_cost"]
+__all__ = ["CostWeights", "Scene", "clearance", "clearance_jit", "collides",
+           "collides_jit", "decoupled_distance_sq", "detour_length_sq",
+           "goal_distance_sq", "obstacle_cost", "running_cost", "terminal_cost"]
 
 
 @dataclass(frozen=True)
@@ -51,10 +56,17 @@ class CostWeights:
     #: straight through them (default); False is the paper's eq. (9) as written.
     #: See docs/controller.md#going-round-obstacles-detour.
     detour: bool = True
+    #: q_clearance of the clearance band B(x) (:func:`obstacle_cost`): the cost of a state whose object
+    #: or pusher is at the margin, falling quadratically to 0 at ``clearance_band_m`` beyond it; 0
+    #: turns the band off (the paper's cost). See docs/controller.md#clearance.
+    q_clearance: float = 0.0
+    clearance_band_m: float = 0.03
 
     def __post_init__(self) -> None:
         for name in ("q_f", "q_r1", "q_r2", "c"):
             check_nonnegative(name, getattr(self, name))
+        check_nonnegative("q_clearance", self.q_clearance)
+        check_positive("clearance_band_m", self.clearance_band_m, "m")
         for name in ("r_s", "C_pen"):
             check_positive(name, getattr(self, name))
         check_nonnegative("obstacle_margin_m", self.obstacle_margin_m, "m")
@@ -179,27 +191,18 @@ def detour_length_sq(x: jnp.ndarray, y: jnp.ndarray, scene: Scene) -> jnp.ndarra
     return best
 
 
-def collides(x: State, scene: Scene, margin: float = 0.0) -> jnp.ndarray:
-    """isCollision (9e): object footprint or pusher disc overlaps an obstacle disc grown by
-    ``margin`` (m); (...,) bool.
-
-    The footprint test is exact for an obstacle that crosses the outline (squared distance
-    from the disc centre to the footprint edges); a disc wholly inside the footprint is
-    caught by a crossing-number test of its centre, written without divisions (valid for
-    the union shapes because their pieces only touch or overlap inside). It runs in every
-    rollout step, so it avoids square roots and reductions (measured at K = 1024: Task III
-    iterations went from 15–24 ms with a vectorised (K, M, E) version to the same time as
-    the obstacle-free Task I).
-    """
+def _obstacle_distances(x: State, scene: Scene):
+    """Per obstacle m, squared distances without square roots: (m, r_m, d²_m from the disc centre to
+    the footprint's edges, whether the centre lies inside the footprint, d²_m from the centre to the
+    pusher's centre). The footprint part is exact for a disc that crosses the outline; a disc wholly
+    inside the footprint is caught by a crossing-number test of its centre, written without
+    divisions (valid for the union shapes because their pieces only touch or overlap inside)."""
     xb, yb, th, xc, yc = components(x)
-    hit = jnp.zeros(jnp.shape(xb), dtype=bool)
-    if scene.obstacles.shape[0] == 0:
-        return hit
     s, c = fastmath.sincos(th)
     a, b = scene.edge_a, scene.edge_b
     # obstacles and edges are few and static: unrolled, so XLA fuses it all (no reductions)
     for m in range(scene.obstacles.shape[0]):
-        ox, oy, r = scene.obstacles[m, 0], scene.obstacles[m, 1], scene.obstacles[m, 2] + margin
+        ox, oy, r = scene.obstacles[m, 0], scene.obstacles[m, 1], scene.obstacles[m, 2]
         dx, dy = ox - xb, oy - yb
         px, py = c * dx + s * dy, -s * dx + c * dy                   # centre in {B}
         d2 = jnp.full(jnp.shape(xb), jnp.inf, dtype=px.dtype)
@@ -214,13 +217,40 @@ def collides(x: State, scene: Scene, margin: float = 0.0) -> jnp.ndarray:
             left = (apx * ey - apy * ex) * jnp.sign(ey) < 0           # x < x_intersection, no division
             inside = inside ^ (crosses & left)
         pdx, pdy = xc - ox, yc - oy
-        hit = hit | (d2 < r * r) | inside | (pdx * pdx + pdy * pdy < (r + scene.pusher_radius) ** 2)
+        yield m, r, d2, inside, pdx * pdx + pdy * pdy
+
+
+def collides(x: State, scene: Scene, margin: float = 0.0) -> jnp.ndarray:
+    """isCollision (9e): object footprint or pusher disc overlaps an obstacle disc grown by
+    ``margin`` (m); (...,) bool.
+
+    It runs in every rollout step, so it avoids square roots and reductions (measured at
+    K = 1024: Task III iterations went from 15–24 ms with a vectorised (K, M, E) version to
+    the same time as the obstacle-free Task I).
+    """
+    hit = jnp.zeros(jnp.shape(components(x)[0]), dtype=bool)
+    for _, r, d2, inside, pd2 in _obstacle_distances(x, scene):
+        r = r + margin
+        hit = hit | (d2 < r * r) | inside | (pd2 < (r + scene.pusher_radius) ** 2)
     return hit
+
+
+def clearance(x: State, scene: Scene) -> jnp.ndarray:
+    """The smallest gap (m) between any obstacle disc and the object's footprint or the pusher's disc;
+    (...,). Zero or less is a touch (a disc wholly inside the footprint counts as −radius); +inf
+    without obstacles."""
+    gap = jnp.full(jnp.shape(components(x)[0]), jnp.inf, dtype=jnp.result_type(components(x)[0], jnp.float32))
+    for _, r, d2, inside, pd2 in _obstacle_distances(x, scene):
+        body = jnp.where(inside, -r, jnp.sqrt(d2) - r)
+        gap = jnp.minimum(gap, jnp.minimum(body, jnp.sqrt(pd2) - r - scene.pusher_radius))
+    return gap
 
 
 #: :func:`collides` compiled once, for checking logged trajectories on the host (the batched
 #: simulator's chunks, the records of finished trials)
 collides_jit = jax.jit(collides)
+#: :func:`clearance` compiled once, for the trial records
+clearance_jit = jax.jit(clearance)
 
 
 def goal_distance_sq(x: State, scene: Scene, c: float) -> jnp.ndarray:
@@ -236,13 +266,37 @@ def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: 
     return detour_length_sq(xb, yb, scene) + c * (1.0 - fastmath.cos(th - scene.goal[2]))
 
 
+def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
+    """P(x) + B(x): the collision penalty (9e) on the discs grown by ``obstacle_margin_m``, and the
+    clearance band B(x) = q_clearance · Σ_m clip(1 − g_m / ``clearance_band_m``, 0, 1)², g_m the gap
+    (m) beyond the margin between disc m and the footprint or the pusher, whichever is nearer.
+
+    B is not in the paper: it makes the planner keep clear of an obstacle by more than the margin
+    where that costs little, so that a prediction error larger than the margin is less often a
+    touch (docs/controller.md#clearance). One pass over the obstacles computes both terms.
+    """
+    xb = components(x)[0]
+    hit = jnp.zeros(jnp.shape(xb), dtype=bool)
+    band = jnp.zeros(jnp.shape(xb), dtype=jnp.result_type(xb, jnp.float32))
+    for _, r, d2, inside, pd2 in _obstacle_distances(x, scene):
+        r = r + w.obstacle_margin_m
+        hit = hit | (d2 < r * r) | inside | (pd2 < (r + scene.pusher_radius) ** 2)
+        if w.q_clearance > 0:
+            gap = jnp.minimum(jnp.sqrt(d2) - r, jnp.sqrt(pd2) - r - scene.pusher_radius)
+            band = band + jnp.clip(1.0 - gap / w.clearance_band_m, 0.0, 1.0) ** 2
+    return jnp.where(hit, w.C_pen, 0.0) + w.q_clearance * band
+
+
 def running_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
-    """l(x) + P(x) of eq. (9c–9e) for states x ((..., 5) array or 5-tuple)."""
+    """l(x) + P(x) of eq. (9c–9e), and the clearance band (:func:`obstacle_cost`), for states x
+    ((..., 5) array or 5-tuple)."""
     xb, yb, th, xc, yc = components(x)
     d2 = _goal_distance_sq(xb, yb, th, scene, w.c)
     gap = jnp.sqrt((xc - xb) ** 2 + (yc - yb) ** 2)
     cost = w.q_r1 * d2 + w.q_r2 * jnp.maximum(gap - scene.r_s, 0.0)
-    return cost + jnp.where(collides(x, scene, w.obstacle_margin_m), w.C_pen, 0.0)
+    if scene.obstacles.shape[0] == 0:
+        return cost
+    return cost + obstacle_cost(x, scene, w)
 
 
 def terminal_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:

@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass, field
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.cost import Scene, collides_jit
+from dexpush.cost import Scene, clearance_jit, collides_jit
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
 from dexpush.se2 import pose_error
@@ -73,6 +73,9 @@ class EpisodeRecord:
     estimator_updates: int | None = None  #: informative windows that updated the λ estimate
     gated_windows: int | None = None      #: of those, windows the innovation gate down-weighted
     stall_resets: int | None = None       #: MPPI: planner restarts after a stall (docs/controller.md#stalls)
+    #: with obstacles: the smallest gap (m) between an obstacle and the object or the pusher over the trial
+    #: (≤ 0 on a touch; :func:`dexpush.cost.clearance`)
+    clearance_m: float | None = None
 
 
 @dataclass
@@ -118,9 +121,11 @@ def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method:
     if len(U):
         n = len(U)
         modes = np.asarray(contact_solution(Contour.of(shape), _in_blocks(X[:-1]), _in_blocks(U), LAMBDA_TRUE).mode)[:n]
-        hits = np.asarray(collides_jit(jnp.asarray(_in_blocks(X[1:]), jnp.float32), scene))[:n]
+        xs = jnp.asarray(_in_blocks(X[1:]), jnp.float32)
+        hits = np.asarray(collides_jit(xs, scene))[:n]
+        gaps = np.asarray(clearance_jit(xs, scene))[:n] if len(task.obstacles) else None
     else:
-        modes, hits = np.zeros(0, int), np.zeros(0, bool)
+        modes, hits, gaps = np.zeros(0, int), np.zeros(0, bool), None
     in_contact = modes != MODE_NAMES.index("free")
     pos_err, head_err = pose_error(X[-1, :3], task.goal)
     ms = result.step_ms if len(result.step_ms) else np.zeros(1)
@@ -135,7 +140,7 @@ def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method:
         lanes=int(lanes), plant=plant, sensor=sensor_label(sensor),
         offline_plan_s=round(float(result.plan_s[0]), 3) if result.plan_s else None,
         replans=len(result.plan_s) - 1 if result.plan_s else None,
-        stall_resets=result.stall_resets,
+        stall_resets=result.stall_resets, clearance_m=round(float(gaps.min()), 5) if gaps is not None else None,
         **{name: getattr(result, name) if method == "mppi-ukf" else None for name in ESTIMATOR_COUNTERS})
     return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(task.goal),
                    np.asarray(task.obstacles).reshape(-1, 3))
@@ -153,6 +158,7 @@ def summarize(trials: list[dict]) -> dict:
     offline = np.array([t["offline_plan_s"] for t in trials if t.get("offline_plan_s") is not None], float)
     replans = np.array([t["replans"] for t in trials if t.get("replans") is not None], float)
     stalls = np.array([t["stall_resets"] for t in trials if t.get("stall_resets") is not None], float)
+    gaps = np.array([t["clearance_m"] for t in trials if t.get("clearance_m") is not None], float)
     return {"trials": len(trials), "successes": len(ok),
             "success_rate": round(len(ok) / len(trials), 4) if trials else None,
             "object_path_m": mean_std("object_path_m"), "pusher_path_m": mean_std("pusher_path_m"),
@@ -162,4 +168,6 @@ def summarize(trials: list[dict]) -> dict:
             "offline_plan_s": [round(float(np.median(offline)), 3), round(float(offline.max()), 3)]
             if len(offline) else None,
             "replans_mean": round(float(replans.mean()), 2) if len(replans) else None,
-            "stall_resets_mean": round(float(stalls.mean()), 2) if len(stalls) else None}
+            "stall_resets_mean": round(float(stalls.mean()), 2) if len(stalls) else None,
+            # every trial's smallest obstacle clearance: the least of them, and their median (m)
+            "clearance_m": [round(float(gaps.min()), 5), round(float(np.median(gaps)), 5)] if len(gaps) else None}

@@ -37,8 +37,8 @@ def write_tables(out: str | os.PathLike, records: list[dict], meta: dict) -> dic
              + (f" {meta['note']}." if meta.get("note") else ""), "",
              "| task | shape | params | method | SR | object TL (m) | pusher TL (m) | time to goal (s) "
              "| planning ms per step (median / max) | offline plan s (median / max) | replans (mean) "
-             "| stall restarts (mean) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| stall restarts (mean) | clearance mm (least / median) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary:
         lines.append(f"| {s['task']} | {s['shape']} | {s['params']} | {s['method']} | "
                      f"{s['successes']}/{s['trials']} ({100 * s['success_rate']:.0f} %) | {fmt(s['object_path_m'])} | "
@@ -46,7 +46,9 @@ def write_tables(out: str | os.PathLike, records: list[dict], meta: dict) -> dic
                      f"{s['planning_ms_median']:.1f} / {s['planning_ms_max']:.0f} | "
                      + (f"{s['offline_plan_s'][0]:.1f} / {s['offline_plan_s'][1]:.1f} | {s['replans_mean']:.1f} |"
                         if s["offline_plan_s"] else "– | – |")
-                     + (f" {s['stall_resets_mean']:.1f} |" if s.get("stall_resets_mean") is not None else " – |"))
+                     + (f" {s['stall_resets_mean']:.1f} |" if s.get("stall_resets_mean") is not None else " – |")
+                     + (f" {1e3 * s['clearance_m'][0]:.1f} / {1e3 * s['clearance_m'][1]:.1f} |"
+                        if s.get("clearance_m") else " – |"))
     with atomic_path(files["markdown"]) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
     return files
