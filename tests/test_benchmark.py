@@ -60,31 +60,31 @@ def test_a_folder_refuses_runs_with_other_settings(tmp_path: Path) -> None:
     # (the stall watch and the detour are on by default now), and with a newer setting's default
     for key in ("stall_after_s", "stall_backoff", "endgame_temperature"):
         del saved["settings"]["controller"][key]
-    for key in ("detour", "q_clearance", "clearance_band_m"):
+    for key in ("detour", "C_margin"):
         del saved["settings"]["controller"]["weights"][key]
     (tmp_path / "settings.json").write_text(json.dumps(saved))
     with pytest.raises(ValueError, match=r"endgame_temperature: None there, 0.005 now; controller.stall_after_s: "
-                                         r"None there, 4.0 now; controller.weights.detour: False there"):
+                                         r"None there, 4.0 now; controller.weights.C_margin: None there"):
         run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
                       figures=False)
     run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
-                  figures=False, settings=ControllerSettings(weights=CostWeights(detour=False, q_clearance=0.0),
+                  figures=False, settings=ControllerSettings(weights=CostWeights(detour=False, C_margin=None),
                                                              stall_after_s=None, endgame_temperature=None))
 
 
 def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path: Path) -> None:
     assert main(["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi", "--seeds", "0",
                  "--max-steps", "2", "--lanes", "1", "--no-detour", "--stall-after", "off", "--temperature", "0.05",
-                 "--endgame-temperature", "off", "--clearance", "off", "--no-figures", "--quiet",
+                 "--endgame-temperature", "off", "--margin-cost", "off", "--no-figures", "--quiet",
                  "--out", str(tmp_path)]) == 0
     controller = json.loads((tmp_path / "settings.json").read_text())["settings"]["controller"]
     assert controller["weights"]["detour"] is False and controller["stall_after_s"] is None
     assert controller["mppi"]["temperature"] == 0.05 and controller["endgame_temperature"] is None
-    assert controller["weights"]["q_clearance"] == 0.0
-    command = "--no-detour --stall-after off --temperature 0.05 --endgame-temperature off --clearance off"
+    assert controller["weights"]["C_margin"] is None
+    command = "--no-detour --stall-after off --temperature 0.05 --endgame-temperature off --margin-cost off"
     assert command in (tmp_path / "benchmark.md").read_text()
     for bad in (["--stall-after", "0"], ["--temperature", "0"], ["--temperature", "nan"],
-                ["--endgame-temperature", "-1"], ["--clearance", "0"]):
+                ["--endgame-temperature", "-1"], ["--margin-cost", "0"]):
         with pytest.raises(SystemExit):
             main(["bench", *bad, "--out", str(tmp_path)])
 

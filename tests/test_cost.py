@@ -178,28 +178,62 @@ def test_clearance_is_the_same_wherever_the_scene_is_put() -> None:
     assert float(clearance(jnp.asarray(x), Scene.make(shape, (0.6, 0, 0)))) == np.inf
 
 
-def test_the_clearance_band_charges_q_at_the_margin_and_nothing_beyond_the_band() -> None:
+def test_inside_the_margin_the_cost_grows_with_the_depth_and_a_touch_costs_c_pen() -> None:
     from dexpush.cost import obstacle_cost
 
-    shape, w = Shape.rectangle(), CostWeights(q_clearance=10.0)
+    shape, w = Shape.rectangle(), CostWeights()
     scene = Scene.make(shape, (0.6, 0, 0), ((0.30, 0.0, 0.05),), w)
-    face = 0.30 - 0.10 - 0.05 - w.obstacle_margin_m            # the box's right face at the margin
-    gaps = np.linspace(1e-4, w.clearance_band_m + 0.01, 40)
+    m = w.obstacle_margin_m
+    face = 0.30 - 0.10 - 0.05                                   # the box's right face on the disc
+    gaps = np.linspace(-0.004, 2 * m, 61)
     box = jnp.asarray([[face - g, 0.0, 0.0, -0.3, 0.0] for g in gaps], jnp.float32)
-    band = np.asarray(obstacle_cost(box, scene, w))
-    inside = gaps < w.clearance_band_m
-    np.testing.assert_allclose(band[inside], w.q_clearance * (1 - gaps[inside] / w.clearance_band_m) ** 2,
-                               rtol=1e-3, atol=1e-4)
-    assert np.all(band[~inside] == 0.0) and np.all(np.diff(band) <= 0)
+    cost = np.asarray(obstacle_cost(box, scene, w), np.float64)
+    zone = (gaps > 1e-5) & (gaps < m)
+    np.testing.assert_allclose(cost[zone], w.C_margin * (1 - gaps[zone] / m), rtol=2e-3)
+    assert np.all(cost[gaps > m + 1e-5] == 0.0)
+    assert np.all(cost[gaps < -1e-5] >= w.C_pen)
+    assert np.all(np.diff(cost) <= 0)                            # never cheaper deeper in
+    assert 25 * w.C_margin < w.C_pen                            # a touch costs more than a horizon in the margin
     # the pusher is kept clear the same way
-    pusher = jnp.asarray([0.0, 0.0, 0.0, 0.30, 0.05 + shape.pusher_radius + w.obstacle_margin_m + 0.01])
-    assert float(obstacle_cost(pusher, scene, w)) == pytest.approx(w.q_clearance * (1 - 0.01 / 0.03) ** 2, rel=1e-3)
-    # off, it is the collision penalty (9e) alone
-    off = CostWeights(q_clearance=0.0)
-    assert np.all(np.asarray(obstacle_cost(box, scene, off)) == 0.0)
-    inside_margin = jnp.asarray([face + 0.005, 0.0, 0.0, -0.3, 0.0])
-    assert float(obstacle_cost(inside_margin, scene, off)) == pytest.approx(off.C_pen)
-    with pytest.raises(ValueError, match="clearance_band_m"):
-        CostWeights(clearance_band_m=0.0)
-    with pytest.raises(ValueError, match="q_clearance"):
-        CostWeights(q_clearance=-1.0)
+    pusher = jnp.asarray([0.0, 0.0, 0.0, 0.30, 0.05 + shape.pusher_radius + 0.25 * m])
+    assert float(obstacle_cost(pusher, scene, w)) == pytest.approx(0.75 * w.C_margin, rel=1e-3)
+    # C_margin None: the collision test of (9e) on the grown discs, C_pen anywhere within the margin
+    binary = CostWeights(C_margin=None)
+    np.testing.assert_allclose(np.asarray(obstacle_cost(box, scene, binary))[gaps < m - 1e-5], binary.C_pen, rtol=1e-6)
+    assert np.all(np.asarray(obstacle_cost(box, scene, binary))[gaps > m + 1e-5] == 0.0)
+    for bad in (0.0, -1.0, 1e12):
+        with pytest.raises(ValueError, match="C_margin"):
+            CostWeights(C_margin=bad)
+
+
+def test_from_inside_the_margin_the_plan_leaves_it_without_touching() -> None:
+    """The box 4 mm from the disc (inside the 1-cm margin), the pusher behind it: the graded
+    margin's plan goes out the way it came, no predicted state touches; every state of the binary
+    margin's samples costs C_pen until out, and its plan cuts through the disc."""
+    import dataclasses
+    import functools
+
+    from dexpush.controller import ControllerSettings, plan_step, policy_init
+    from dexpush.cost import clearance
+    from dexpush.model import LAMBDA_TRUE, Contour, integrate
+
+    shape = Shape.rectangle()
+    contour = Contour.of(shape)
+    graded = ControllerSettings(stall_after_s=None)
+    binary = dataclasses.replace(graded, weights=CostWeights(C_margin=None))
+    scene = Scene.make(shape, (0.6, 0.0, 0.0), ((0.30, 0.0, 0.05),), graded.weights)
+    x = jnp.asarray([0.30 - 0.10 - 0.05 - 0.004, -0.03, 0.0, 0.30 - 0.155 - 0.11, -0.03], jnp.float32)
+
+    def closest(settings: ControllerSettings) -> float:
+        step = jax.jit(functools.partial(plan_step, contour=contour, scene=scene, settings=settings))
+        state = policy_init(LAMBDA_TRUE, settings, 3)
+        for _ in range(10):
+            state, _, result = step(state, x)
+        xs, gaps = x, []
+        for u, dt in zip(np.asarray(result.sequence), graded.mppi.step_durations(), strict=True):
+            xs = integrate(contour, xs, jnp.asarray(u), jnp.float32(dt), jnp.asarray(LAMBDA_TRUE), jnp.float32(0.3), 4)
+            gaps.append(float(clearance(xs, scene)))
+        return min(gaps)
+
+    assert closest(graded) >= 0.004 - 1e-4            # measured: never deeper than it started (4.0 mm)
+    assert closest(binary) < 0.0                      # measured: −21 mm, through the disc

@@ -69,3 +69,24 @@ def test_controller_copes_with_a_slow_late_lossy_camera() -> None:
     end_err = abs(np.angle(np.exp(1j * (ep.states[-1, 2] - np.pi / 2))))
     assert end_err < 0.5 * start_err
     assert np.all(np.isfinite(ep.commands))
+
+
+def test_planning_state_is_the_frame_predicted_to_the_present() -> None:
+    """``planning_state`` (world frame) is the observation for ``command``; for ``act`` the newest
+    frame moved on by the commands issued since its capture, and the frame itself when it is fresh."""
+    from dexpush import PushingController, Shape
+    from dexpush.interfaces import Observation
+    from dexpush.model import LAMBDA_TRUE
+
+    shape = Shape.rectangle()
+    ctrl = PushingController(shape, goal=(1.6, 2.3, 0.0), params=LAMBDA_TRUE)
+    assert ctrl.planning_state is None
+    pose, pusher = np.array([1.0, 2.0, 0.1]), np.array([1.0 - 0.111 * np.cos(0.1), 2.0 - 0.111 * np.sin(0.1)])
+    ctrl.command(pose, pusher)
+    np.testing.assert_allclose(ctrl.planning_state, np.r_[pose, pusher], atol=1e-6)
+    ctrl.reset()
+    u0 = ctrl.act(Observation(pose, pusher, 0.0))                      # fresh: the frame itself
+    np.testing.assert_allclose(ctrl.planning_state, np.r_[pose, pusher], atol=1e-6)
+    ctrl.act(Observation(pose, pusher, 0.0))                           # a period old: moved on by u0
+    np.testing.assert_allclose(ctrl.planning_state[3:], pusher + 0.04 * u0, atol=1e-6)
+    assert np.linalg.norm(u0) > 0.01

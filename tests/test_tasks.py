@@ -96,7 +96,8 @@ def test_the_cost_keeps_a_margin_that_the_reported_collision_does_not() -> None:
     clear = jnp.asarray([0.30 - 0.10 - 0.05 - 2 * w.obstacle_margin_m, 0.0, 0.0, -0.3, 0.0])
     for x in (near_box, near_pusher):
         assert not bool(collides(x, scene)) and bool(collides(x, scene, w.obstacle_margin_m))
-        assert float(running_cost(x, scene, w)) >= 0.99 * w.C_pen
+        assert float(running_cost(x, scene, w)) >= 0.49 * w.C_margin        # half way into the margin
+        assert float(running_cost(x, scene, CostWeights(C_margin=None))) >= 0.99 * w.C_pen
     assert float(running_cost(clear, scene, w)) < 1e6
     no_margin = CostWeights(obstacle_margin_m=0.0)
     assert float(running_cost(near_box, scene, no_margin)) < 1e6

@@ -275,12 +275,15 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
         args.plant = "physics-random"
     # the controller options given on the command line (None: not given, so the default)
     flags = {"--detour": args.detour, "--stall-after": args.stall_after, "--temperature": args.temperature,
-             "--endgame-temperature": args.endgame_temperature, "--clearance": args.clearance}
+             "--endgame-temperature": args.endgame_temperature, "--margin-cost": args.margin_cost,
+             "--obstacle-margin": args.obstacle_margin}
     settings = None
     if any(v is not None for v in flags.values()):
         default = ControllerSettings()
         weights = replace(default.weights, detour=default.weights.detour if args.detour is None else args.detour,
-                          q_clearance=_or_off(args.clearance, default.weights.q_clearance) or 0.0)
+                          C_margin=_or_off(args.margin_cost, default.weights.C_margin),
+                          obstacle_margin_m=(default.weights.obstacle_margin_m if args.obstacle_margin is None
+                                             else args.obstacle_margin))
         mppi = default.mppi if args.temperature is None else replace(default.mppi, temperature=args.temperature)
         settings = replace(default, weights=weights, mppi=mppi,
                            stall_after_s=_or_off(args.stall_after, default.stall_after_s),
@@ -435,9 +438,13 @@ def build_parser() -> argparse.ArgumentParser:
                        metavar="TAU|off", help="τ within 4 cm of the goal, or the same τ everywhere (off) "
                        "(ControllerSettings.endgame_temperature; docs/controller.md#the-endgame-temperature; "
                        "default: 0.005)")
-    bench.add_argument("--clearance", type=positive_or_off("a cost"), default=None, metavar="Q|off",
-                       help="the cost of passing an obstacle at the margin, falling to 0 at 3 cm beyond it, or no "
-                            "such cost (off) (CostWeights.q_clearance; docs/controller.md#clearance; default: off)")
+    bench.add_argument("--obstacle-margin", type=positive_float, default=None, metavar="M",
+                       help="the planner keeps object and pusher this far (m) from obstacles (CostWeights."
+                            "obstacle_margin_m; docs/controller.md#the-margin; default: 0.01)")
+    bench.add_argument("--margin-cost", type=positive_or_off("a cost"), default=None, metavar="C|off",
+                       help="inside the 1-cm obstacle margin a state costs C times its depth into it, or the "
+                            "collision penalty (off) (CostWeights.C_margin; docs/controller.md#the-margin; "
+                            "default: 1e9)")
     bench.add_argument("--out", default="out/bench", help="output folder; re-running resumes (default out/bench)")
     bench.add_argument("--quiet", action="store_true", help="no progress output")
     bench.set_defaults(func=_cmd_bench)

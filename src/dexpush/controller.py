@@ -370,6 +370,16 @@ class PushingController:
                           "(see estimator_resets); commands continue.", RuntimeWarning, stacklevel=3)
 
     @property
+    def planning_state(self) -> np.ndarray | None:
+        """The state [x_b, y_b, θ, x_c, y_c] (world frame) the last command was planned from: the
+        observation, or with :meth:`act` the newest frame predicted to the present; None before the
+        first command. With :attr:`last` (the new nominal sequence) it says what the plan expects."""
+        if self._predicted is None:
+            return None
+        x = np.asarray(self._predicted, dtype=np.float64)
+        return x + np.concatenate([self._origin, self._origin[:2]])
+
+    @property
     def params(self) -> np.ndarray:
         """The λ_pred the model currently uses."""
         return np.asarray(self.state.params, dtype=np.float64)

@@ -4,17 +4,16 @@
     φ(x)  = q_f · d²(q_sb, q_g)                                                     (9b)
     l(x)  = q_r1 · d²(q_sb, q_g) + q_r2 · ReLU(‖p_sc − p_sb‖ − r_s)                (9c, 9d)
     P(x)  = C_pen if isCollision(x, margin) else 0                                  (9e)
-    B(x)  = q_clearance · Σ_m clip(1 − g_m / b, 0, 1)²      (the clearance band; not in the paper)
     d²(q₁, q₂) = ‖Δp‖² + c · (1 − cos Δθ)        ("decoupled distance")
 
 Obstacles are discs ``(c_x, c_y, radius)``. ``isCollision`` covers both the object's
 footprint (not inflated) and the pusher disc (docs/conventions.md#controller). In the
 cost the discs are grown by ``CostWeights.obstacle_margin_m`` (default 1 cm), a safety
 margin for prediction error on a plant that is not the model; the reported collisions
-(and a failed Task III trial) use the discs as given. B(x), added to l(x), charges a state
-whose object or pusher passes within a band b (default 3 cm) beyond that margin, g_m being
-the gap beyond the margin to disc m: the planner keeps clear by more than the margin where
-that costs little (docs/controller.md#clearance).
+(and a failed Task III trial) use the discs as given. Inside the margin but clear of the disc
+a state costs C_margin · (depth into the margin / margin) rather than C_pen, so that a state
+already inside it (a noisy frame, a push that turned more than predicted) has a way out that
+costs less than going on in (docs/controller.md#the-margin).
 """
 
 from __future__ import annotations
@@ -56,17 +55,19 @@ class CostWeights:
     #: straight through them (default); False is the paper's eq. (9) as written.
     #: See docs/controller.md#going-round-obstacles-detour.
     detour: bool = True
-    #: q_clearance of the clearance band B(x) (:func:`obstacle_cost`): the cost of a state whose object
-    #: or pusher is at the margin, falling quadratically to 0 at ``clearance_band_m`` beyond it; 0
-    #: turns the band off (the paper's cost). See docs/controller.md#clearance.
-    q_clearance: float = 0.0
-    clearance_band_m: float = 0.03
+    #: inside the margin, clear of the disc, a state costs C_margin per obstacle times its depth into the
+    #: margin as a fraction of it (:func:`obstacle_cost`); None charges C_pen there, as the discs grown by
+    #: the margin in (9e) would (the planner until 2026-12-01). See docs/controller.md#the-margin.
+    C_margin: float | None = 1e9
 
     def __post_init__(self) -> None:
         for name in ("q_f", "q_r1", "q_r2", "c"):
             check_nonnegative(name, getattr(self, name))
-        check_nonnegative("q_clearance", self.q_clearance)
-        check_positive("clearance_band_m", self.clearance_band_m, "m")
+        if self.C_margin is not None:
+            check_positive("C_margin", self.C_margin, "or None")
+            if self.C_margin * 100 > self.C_pen:
+                raise ValueError(f"C_margin must be far below C_pen (a touch must cost more than 25 slots inside "
+                                 f"the margin): got C_margin={self.C_margin:g}, C_pen={self.C_pen:g}")
         for name in ("r_s", "C_pen"):
             check_positive(name, getattr(self, name))
         check_nonnegative("obstacle_margin_m", self.obstacle_margin_m, "m")
@@ -267,29 +268,36 @@ def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: 
 
 
 def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
-    """P(x) + B(x): the collision penalty (9e) on the discs grown by ``obstacle_margin_m``, and the
-    clearance band B(x) = q_clearance · Σ_m clip(1 − g_m / ``clearance_band_m``, 0, 1)², g_m the gap
-    (m) beyond the margin between disc m and the footprint or the pusher, whichever is nearer.
+    """P(x) of eq. (9e) with the planner's margin m = ``obstacle_margin_m``, for states x (...,).
 
-    B is not in the paper: it makes the planner keep clear of an obstacle by more than the margin
-    where that costs little, so that a prediction error larger than the margin is less often a
-    touch (docs/controller.md#clearance). One pass over the obstacles computes both terms.
+    A touch (object footprint or pusher disc overlapping a disc as given) costs C_pen. A state
+    clear of every disc but within m of disc i, at the gap g_i (the nearer of footprint and pusher,
+    :func:`clearance`), costs C_margin · Σ_i (m − g_i)/m: a barrier as stiff as C_pen against
+    planning into the margin from outside (C_margin = 1e9 ≫ any goal cost), but graded, so that from
+    a state already inside it the way out is the cheapest and a touch (C_pen = 1e13, more than
+    25 slots at full depth) never pays. With ``C_margin`` None every state within the margin costs
+    C_pen, the collision test of (9e) on discs grown by m: from inside the margin every sample costs
+    C_pen per slot until it is out, so the planner preferred the quickest way out, also through
+    the disc (docs/controller.md#the-margin).
     """
     xb = components(x)[0]
-    hit = jnp.zeros(jnp.shape(xb), dtype=bool)
-    band = jnp.zeros(jnp.shape(xb), dtype=jnp.result_type(xb, jnp.float32))
+    touch = jnp.zeros(jnp.shape(xb), dtype=bool)
+    depth = jnp.zeros(jnp.shape(xb), dtype=jnp.result_type(xb, jnp.float32))
+    m, rp = w.obstacle_margin_m, scene.pusher_radius
+    graded = w.C_margin is not None and m > 0
     for _, r, d2, inside, pd2 in _obstacle_distances(x, scene):
-        r = r + w.obstacle_margin_m
-        hit = hit | (d2 < r * r) | inside | (pd2 < (r + scene.pusher_radius) ** 2)
-        if w.q_clearance > 0:
-            gap = jnp.minimum(jnp.sqrt(d2) - r, jnp.sqrt(pd2) - r - scene.pusher_radius)
-            band = band + jnp.clip(1.0 - gap / w.clearance_band_m, 0.0, 1.0) ** 2
-    return jnp.where(hit, w.C_pen, 0.0) + w.q_clearance * band
+        if graded:
+            touch = touch | (d2 < r * r) | inside | (pd2 < (r + rp) ** 2)
+            gap = jnp.minimum(jnp.sqrt(d2) - r, jnp.sqrt(pd2) - r - rp)
+            depth = depth + jnp.clip(1.0 - gap / m, 0.0, 1.0)
+        else:
+            touch = touch | (d2 < (r + m) ** 2) | inside | (pd2 < (r + m + rp) ** 2)
+    cost = jnp.where(touch, w.C_pen, 0.0)
+    return cost + w.C_margin * depth if graded else cost
 
 
 def running_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
-    """l(x) + P(x) of eq. (9c–9e), and the clearance band (:func:`obstacle_cost`), for states x
-    ((..., 5) array or 5-tuple)."""
+    """l(x) + P(x) of eq. (9c–9e) (P: :func:`obstacle_cost`) for states x ((..., 5) array or 5-tuple)."""
     xb, yb, th, xc, yc = components(x)
     d2 = _goal_distance_sq(xb, yb, th, scene, w.c)
     gap = jnp.sqrt((xc - xb) ** 2 + (yc - yb) ** 2)
