@@ -1,7 +1,7 @@
 """What the planner saw and planned in the steps before an obstacle touch (issue 15).
 
     python benchmarks/obstacle_trace.py --seed 1009 [--shape tee] [--plant physics] [--margin-cost off]
-                                        [--steps 40]
+                                        [--obstacle-margin 0.01] [--steps 40]
 
 One Task III trial (MPPI + UKF, unknown λ, the realistic camera) through
 ``PushingController.act``. After each command it prints, for the last ``--steps`` control steps:
@@ -42,12 +42,15 @@ def main() -> None:
     ap.add_argument("--shape", default="tee")
     ap.add_argument("--plant", default="physics", choices=("physics", "physics-random", "model"))
     ap.add_argument("--margin-cost", default=None, help="CostWeights.C_margin, or off (None)")
+    ap.add_argument("--obstacle-margin", type=float, default=CostWeights().obstacle_margin_m,
+                    help="CostWeights.obstacle_margin_m (m)")
     ap.add_argument("--steps", type=int, default=40, help="how many of the last steps to print")
     args = ap.parse_args()
 
     task, shape = get_task("III"), make_shape(args.shape)
-    weights = CostWeights() if args.margin_cost is None else replace(
-        CostWeights(), C_margin=None if args.margin_cost == "off" else float(args.margin_cost))
+    weights = CostWeights(obstacle_margin_m=args.obstacle_margin)
+    if args.margin_cost is not None:
+        weights = replace(weights, C_margin=None if args.margin_cost == "off" else float(args.margin_cost))
     settings = ControllerSettings(weights=weights)
     sensor = SensorSettings.realistic()
     sensor = world_sensor(args.plant, replace(sensor, seed=sensor.seed * 1_000_003 + args.seed), args.seed)

@@ -237,3 +237,21 @@ def test_from_inside_the_margin_the_plan_leaves_it_without_touching() -> None:
 
     assert closest(graded) >= 0.004 - 1e-4            # measured: never deeper than it started (4.0 mm)
     assert closest(binary) < 0.0                      # measured: −21 mm, through the disc
+
+
+def test_a_plan_from_inside_the_margin_keeps_its_start_clearance_as_margin() -> None:
+    from dexpush.cost import clearance, plan_margin
+
+    shape, w = Shape.rectangle(), CostWeights()
+    scene = Scene.make(shape, (0.6, 0, 0), ((0.30, 0.0, 0.05),), w)
+    assert float(scene.margin) == pytest.approx(w.obstacle_margin_m)
+    face = 0.30 - 0.10 - 0.05
+    for gap, want in ((0.03, w.obstacle_margin_m), (0.004, 0.004), (-0.002, 1e-4)):
+        x = jnp.asarray([face - gap, 0.0, 0.0, -0.3, 0.0], jnp.float32)
+        assert float(plan_margin(x, scene, w).margin) == pytest.approx(want, abs=1e-6)
+        if gap > 0:
+            assert float(clearance(x, scene)) == pytest.approx(gap, abs=1e-6)
+    inside = jnp.asarray([face - 0.004, 0.0, 0.0, -0.3, 0.0], jnp.float32)
+    assert plan_margin(inside, scene, CostWeights(C_margin=None)) is scene       # the binary margin: as given
+    free = Scene.make(shape, (0.6, 0, 0), (), w)
+    assert plan_margin(inside, free, w) is free

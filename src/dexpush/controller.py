@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.checks import check_nonnegative, check_params, check_positive, checked_seed, checked_vector
-from dexpush.cost import CostWeights, Scene, goal_distance_sq, obstacle_array, running_cost, terminal_cost
+from dexpush.cost import CostWeights, Scene, goal_distance_sq, obstacle_array, plan_margin, running_cost, terminal_cost
 from dexpush.estimator import EstimatorState, UKFSettings, estimator_init, estimator_observe, rate_limited
 from dexpush.geometry import Shape
 from dexpush.interfaces import Observation
@@ -231,7 +231,8 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
     reset sequence, should it ever be non-finite); the sequence is shifted by the control
     period as the next warm start. A stall (:func:`watch_progress`) zeroes the warm start first.
     Within ``endgame_distance_m`` of the goal the iteration weights its samples with
-    ``endgame_temperature``.
+    ``endgame_temperature``. From a state inside the obstacle margin the plan may not come nearer
+    than that state (:func:`dexpush.cost.plan_margin`).
     """
     mp = settings.mppi
     x = jnp.asarray(x, jnp.float32)
@@ -243,8 +244,9 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
             stretch = state.stretch
     key, sub = jax.random.split(state.key)
     weights, mu = settings.weights, state.mu
+    plan_scene = plan_margin(x, scene, weights)     # from inside the margin: no nearer than now
     result = mppi_iteration(
-        sub, state.sequence, tuple(x[i] for i in range(5)), state.params, scene,   # rollouts carry a tuple
+        sub, state.sequence, tuple(x[i] for i in range(5)), state.params, plan_scene,   # rollouts carry a tuple
         dynamics=lambda xs, u, dt, p: step(contour, xs, u, dt, p, mu),
         running_cost=lambda xs, sc: running_cost(xs, sc, weights),
         terminal_cost=lambda xs, sc: terminal_cost(xs, sc, weights), settings=mp, horizon_scale=stretch,

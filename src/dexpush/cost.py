@@ -18,6 +18,7 @@ costs less than going on in (docs/controller.md#the-margin).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import jax
@@ -31,7 +32,7 @@ from dexpush.model import State, components
 
 __all__ = ["CostWeights", "Scene", "clearance", "clearance_jit", "collides",
            "collides_jit", "decoupled_distance_sq", "detour_length_sq",
-           "goal_distance_sq", "obstacle_cost", "running_cost", "terminal_cost"]
+           "goal_distance_sq", "obstacle_cost", "plan_margin", "running_cost", "terminal_cost"]
 
 
 @dataclass(frozen=True)
@@ -91,6 +92,9 @@ class Scene:
     #: (M,) radius ρ_m (m) of the disc around obstacle m that the goal distance detours round
     #: (:func:`detour_length_sq`); empty without ``CostWeights.detour``
     detour_radius: jnp.ndarray = None  # type: ignore[assignment]
+    #: the margin (m) this plan keeps from the obstacles: ``CostWeights.obstacle_margin_m``, or less
+    #: where the object or the pusher is already nearer (:func:`plan_margin`)
+    margin: jnp.ndarray = None  # type: ignore[assignment]
 
     @staticmethod
     def make(shape: Shape, goal: object, obstacles: object = (), weights: CostWeights | None = None) -> Scene:
@@ -117,11 +121,11 @@ class Scene:
             reach = float(np.max(np.hypot(a[:, 0], a[:, 1])))
             rho = np.minimum(obs[:, 2] + w.obstacle_margin_m + reach, np.hypot(*(g[None, :2] - obs[:, :2]).T))
         return Scene(jnp.asarray(g), jnp.asarray(obs), jnp.asarray(a), jnp.asarray(b), jnp.asarray(r_s),
-                     shape.pusher_radius, jnp.asarray(rho))
+                     shape.pusher_radius, jnp.asarray(rho), jnp.asarray(w.obstacle_margin_m))
 
 
 jax.tree_util.register_dataclass(
-    Scene, data_fields=["goal", "obstacles", "edge_a", "edge_b", "r_s", "detour_radius"],
+    Scene, data_fields=["goal", "obstacles", "edge_a", "edge_b", "r_s", "detour_radius", "margin"],
     meta_fields=["pusher_radius"])
 
 
@@ -267,30 +271,47 @@ def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: 
     return detour_length_sq(xb, yb, scene) + c * (1.0 - fastmath.cos(th - scene.goal[2]))
 
 
+#: the least margin (m) a plan keeps (:func:`plan_margin`): below it the depth fraction is too steep
+MIN_PLAN_MARGIN_M = 1e-4
+
+
+def plan_margin(x: State, scene: Scene, w: CostWeights) -> Scene:
+    """The scene for a plan that starts from state x: its margin is ``obstacle_margin_m``, or the
+    state's own clearance where that is less (at least :data:`MIN_PLAN_MARGIN_M`), so that a plan
+    from inside the margin is charged only for coming nearer than it already is. Unchanged without
+    ``C_margin`` (the binary margin of before 2026-12-01) or without obstacles."""
+    if w.C_margin is None or w.obstacle_margin_m <= 0 or scene.obstacles.shape[0] == 0:
+        return scene
+    m = jnp.clip(clearance(x, scene), MIN_PLAN_MARGIN_M, w.obstacle_margin_m)
+    return dataclasses.replace(scene, margin=m.astype(scene.obstacles.dtype))
+
+
 def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
-    """P(x) of eq. (9e) with the planner's margin m = ``obstacle_margin_m``, for states x (...,).
+    """P(x) of eq. (9e) with the planner's margin m (``scene.margin``), for states x (...,).
 
     A touch (object footprint or pusher disc overlapping a disc as given) costs C_pen. A state
     clear of every disc but within m of disc i, at the gap g_i (the nearer of footprint and pusher,
-    :func:`clearance`), costs C_margin · Σ_i (m − g_i)/m: a barrier as stiff as C_pen against
-    planning into the margin from outside (C_margin = 1e9 ≫ any goal cost), but graded, so that from
-    a state already inside it the way out is the cheapest and a touch (C_pen = 1e13, more than
-    25 slots at full depth) never pays. With ``C_margin`` None every state within the margin costs
-    C_pen, the collision test of (9e) on discs grown by m: from inside the margin every sample costs
-    C_pen per slot until it is out, so the planner preferred the quickest way out, also through
-    the disc (docs/controller.md#the-margin).
+    :func:`clearance`), costs C_margin · Σ_i (m − g_i)/m: as stiff a barrier as C_pen against
+    planning into the margin (C_margin = 1e9 ≫ any goal cost), but graded, and a touch never pays
+    (C_pen = 1e13 is more than 25 slots at full depth). A plan from a state already inside the
+    margin gets m = that state's clearance (:func:`plan_margin`): it may go along the obstacle, or
+    away, but not nearer. With ``C_margin`` None every state within ``obstacle_margin_m`` costs
+    C_pen, the collision test of (9e) on discs grown by it: from inside the margin every sample
+    then cost C_pen per slot until out, and the planner took the quickest way out, through the
+    disc if need be (docs/controller.md#the-margin).
     """
     xb = components(x)[0]
     touch = jnp.zeros(jnp.shape(xb), dtype=bool)
     depth = jnp.zeros(jnp.shape(xb), dtype=jnp.result_type(xb, jnp.float32))
-    m, rp = w.obstacle_margin_m, scene.pusher_radius
-    graded = w.C_margin is not None and m > 0
+    rp = scene.pusher_radius
+    graded = w.C_margin is not None and w.obstacle_margin_m > 0
     for _, r, d2, inside, pd2 in _obstacle_distances(x, scene):
         if graded:
             touch = touch | (d2 < r * r) | inside | (pd2 < (r + rp) ** 2)
             gap = jnp.minimum(jnp.sqrt(d2) - r, jnp.sqrt(pd2) - r - rp)
-            depth = depth + jnp.clip(1.0 - gap / m, 0.0, 1.0)
+            depth = depth + jnp.clip(1.0 - gap / scene.margin, 0.0, 1.0)
         else:
+            m = w.obstacle_margin_m
             touch = touch | (d2 < (r + m) ** 2) | inside | (pd2 < (r + m + rp) ** 2)
     cost = jnp.where(touch, w.C_pen, 0.0)
     return cost + w.C_margin * depth if graded else cost
