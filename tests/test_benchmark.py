@@ -158,9 +158,14 @@ def test_tables_agree_with_records(tmp_path: Path) -> None:
     md = Path(files["markdown"]).read_text()
     assert "| I | rect | known | mppi | 2/3 (67 %) | 0.800 ± 0.100 |" in md
     assert "| 2.0 / 9 | – | – | 1.3 |" in md and "| I | rect | known | gcs | 1/1 (100 %) |" in md
-    assert md.strip().endswith("| 2.0 / 9 | 1.5 / 1.5 | 2.0 | – |")
+    assert md.strip().endswith("| 2.0 / 9 | 1.5 / 1.5 | 2.0 | – | – |")
     lines = Path(files["csv"]).read_text().strip().splitlines()
     assert len(lines) == 5 and lines[0].endswith("offline_plan_s,replans") and lines[1].endswith(",,")
+    # Task III records carry the trial's least clearance: the table gives the least and the median (mm)
+    task3 = [dict(r, task="III", clearance_m=g) for r, g in zip(records, (0.012, -0.001, 0.03), strict=True)]
+    assert summarize(task3)["clearance_m"] == [-0.001, 0.012]
+    write_tables(tmp_path, task3, {"command": "test", "date": "today", "machine": "here"})
+    assert Path(files["markdown"]).read_text().strip().endswith("| 1.3 | -1.0 / 12.0 |")
 
 
 def test_bench_cli_runs_a_tiny_table(tmp_path: Path, capsys) -> None:
