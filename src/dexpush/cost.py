@@ -3,17 +3,17 @@
     StateCost = φ(x_T) + Σ_t [ l(x_t) + P(x_t) ]                                  (9a)
     φ(x)  = q_f · d²(q_sb, q_g)                                                     (9b)
     l(x)  = q_r1 · d²(q_sb, q_g) + q_r2 · ReLU(‖p_sc − p_sb‖ − r_s)                (9c, 9d)
-    P(x)  = C_pen if isCollision(x, margin) else 0                                  (9e)
+    P(x)  = C_pen if isCollision(x) else C_margin · Σ_i clip(1 − g_i / m, 0, 1)    (9e, graded margin)
     d²(q₁, q₂) = ‖Δp‖² + c · (1 − cos Δθ)        ("decoupled distance")
 
 Obstacles are discs ``(c_x, c_y, radius)``. ``isCollision`` covers both the object's
-footprint (not inflated) and the pusher disc (docs/conventions.md#controller). In the
-cost the discs are grown by ``CostWeights.obstacle_margin_m`` (default 1 cm), a safety
-margin for prediction error on a plant that is not the model; the reported collisions
-(and a failed Task III trial) use the discs as given. Inside the margin but clear of the disc
-a state costs C_margin · (depth into the margin / margin) rather than C_pen, so that a state
-already inside it (a noisy frame, a push that turned more than predicted) has a way out that
-costs less than going on in (docs/controller.md#the-margin).
+footprint (not inflated) and the pusher disc (docs/conventions.md#controller): a touch costs
+C_pen. The planner also keeps a margin m (``CostWeights.obstacle_margin_m``, default 1 cm)
+for prediction error on a plant that is not the model: a state clear of the discs but
+within m of disc i at the gap g_i costs C_margin · (1 − g_i/m) rather than C_pen, so that a
+state already inside it (a noisy frame, a push that turned more than predicted) has a way
+out that costs less than going on in (docs/controller.md#the-margin). The reported
+collisions (and a failed Task III trial) use the discs as given.
 """
 
 from __future__ import annotations
