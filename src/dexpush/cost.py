@@ -235,9 +235,14 @@ def collides(x: State, scene: Scene, margin: float = 0.0) -> jnp.ndarray:
     """
     hit = jnp.zeros(jnp.shape(components(x)[0]), dtype=bool)
     for _, r, d2, inside, pd2 in _obstacle_distances(x, scene):
-        r = r + margin
-        hit = hit | (d2 < r * r) | inside | (pd2 < (r + scene.pusher_radius) ** 2)
+        hit = hit | _overlaps(r + margin, d2, inside, pd2, scene.pusher_radius)
     return hit
+
+
+def _overlaps(r: jnp.ndarray, d2: jnp.ndarray, inside: jnp.ndarray, pd2: jnp.ndarray,
+              pusher_radius: float) -> jnp.ndarray:
+    """Whether a disc of radius r overlaps the footprint or the pusher, from :func:`_obstacle_distances`."""
+    return (d2 < r * r) | inside | (pd2 < (r + pusher_radius) ** 2)
 
 
 def clearance(x: State, scene: Scene) -> jnp.ndarray:
@@ -306,13 +311,10 @@ def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
     rp = scene.pusher_radius
     graded = w.C_margin is not None and w.obstacle_margin_m > 0
     for _, r, d2, inside, pd2 in _obstacle_distances(x, scene):
+        touch = touch | _overlaps(r if graded else r + w.obstacle_margin_m, d2, inside, pd2, rp)
         if graded:
-            touch = touch | (d2 < r * r) | inside | (pd2 < (r + rp) ** 2)
             gap = jnp.minimum(jnp.sqrt(d2) - r, jnp.sqrt(pd2) - r - rp)
             depth = depth + jnp.clip(1.0 - gap / scene.margin, 0.0, 1.0)
-        else:
-            m = w.obstacle_margin_m
-            touch = touch | (d2 < (r + m) ** 2) | inside | (pd2 < (r + m + rp) ** 2)
     cost = jnp.where(touch, w.C_pen, 0.0)
     return cost + w.C_margin * depth if graded else cost
 
