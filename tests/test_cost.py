@@ -206,10 +206,10 @@ def test_inside_the_margin_the_cost_grows_with_the_depth_and_a_touch_costs_c_pen
             CostWeights(C_margin=bad)
 
 
-def test_from_inside_the_margin_the_plan_leaves_it_without_touching() -> None:
-    """The box 4 mm from the disc (inside the 1-cm margin), the pusher behind it: the graded
-    margin's plan goes out the way it came, no predicted state touches; every state of the binary
-    margin's samples costs C_pen until out, and its plan cuts through the disc."""
+def test_from_inside_the_margin_the_plan_never_comes_nearer() -> None:
+    """The box 4 mm from the disc (inside the 1-cm margin), the pusher behind it: no state the
+    graded margin's plan predicts comes nearer than 4 mm; every state of the binary margin's
+    samples costs C_pen until out, and its plan cuts through the disc."""
     import dataclasses
     import functools
 
