@@ -162,3 +162,27 @@ def test_online_estimation_learns_beta_from_pushes(folder: Path) -> None:
     assert 1 <= summary["settled_after_push"] <= len(pushes)
     obs = np.random.default_rng(0).normal(size=(50, 3))
     assert nmse(obs, obs) == 0.0 and nmse(np.zeros_like(obs), obs) == pytest.approx(1.0, rel=0.1)
+
+
+def test_online_estimation_of_mu_moves_toward_the_true_friction(folder: Path) -> None:
+    """With ``UKFSettings(estimate_mu=True)`` the session also estimates μ_c (the synthetic pushes slide
+    at μ_c = 0.25): from a prior of 0.5 the estimate ends nearer the truth, and every push's replay
+    and one-step prediction use the μ_c that stood before it."""
+    from dexpush.estimator import UKFSettings
+    from dexpush.online import online_session
+
+    pushes = load_folder(folder)
+    summary, (_, lam) = online_session(pushes, OBJECTS["rect1"](), prior=(30.0, 0.0, 0.0), mu=0.5,
+                                       settings=UKFSettings(estimate_mu=True))
+    assert lam.shape[1] == 4 and np.all(np.isfinite(lam))
+    assert len(summary["mu_c_after_each_push"]) == len(pushes) == len(summary["whole_push_error_deg_each"])
+    assert abs(summary["mu_c_final"] - 0.25) < 0.5 * abs(0.5 - 0.25)
+    fixed, _ = online_session(pushes, OBJECTS["rect1"](), prior=(30.0, 0.0, 0.0), mu=0.5)
+    assert "mu_c_final" not in fixed and summary["nmse_online"] <= fixed["nmse_online"] + 1e-3
+
+
+def test_estimate_mu_needs_online(folder: Path, tmp_path: Path, capsys) -> None:
+    from dexpush.cli import main
+
+    assert main(["validate-mit", str(folder), "--out", str(tmp_path), "--estimate-mu", "--quiet"]) == 2
+    assert "--estimate-mu is an option of --online" in capsys.readouterr().err

@@ -122,6 +122,8 @@ def _cmd_validate(args: argparse.Namespace) -> dict:
     from dexpush.files import write_json_atomic
     from dexpush.viz import plot_confusion, plot_mode_decisions
 
+    if args.estimate_mu and not args.online:
+        raise ValueError("--estimate-mu is an option of --online (the UKF's μ_c); add --online")
     pushes = load_folder(args.data_dir)
     result = validate(pushes, mu=args.mu)
     out = Path(args.out)
@@ -150,18 +152,21 @@ def _validate_online(pushes: list, args: argparse.Namespace, out: Path, files: d
     import matplotlib.pyplot as plt
 
     from dexpush.dataset import OBJECTS
+    from dexpush.estimator import UKFSettings
     from dexpush.files import write_json_atomic
     from dexpush.online import online_session
     from dexpush.registry import PARAMS
     from dexpush.viz import plot_online_lambda
 
     per_object, traces = {}, {}
+    settings = UKFSettings(estimate_mu=args.estimate_mu)
     for name in sorted({p.shape for p in pushes}):
         per_object[name], traces[name] = online_session([p for p in pushes if p.shape == name], OBJECTS[name](),
-                                                        prior=PARAMS["unknown"], mu=args.mu)
+                                                        prior=PARAMS["unknown"], mu=args.mu, settings=settings)
         if not args.quiet:
             e = per_object[name]
-            print(f"{name} online: β {e['prior'][0]:g} → {e['lambda_final'][0]:.1f} (settled after push "
+            mu_text = f", μ_c {args.mu:g} → {e['mu_c_final']:.3f}" if args.estimate_mu else ""
+            print(f"{name} online: β {e['prior'][0]:g} → {e['lambda_final'][0]:.1f}{mu_text} (settled after push "
                   f"{e['settled_after_push']} of {e['pushes']}), whole push {e['whole_push_error_mm_online']:.2f} mm / "
                   f"{e['whole_push_error_deg_online']:.2f}° (prior {e['whole_push_error_mm_prior']:.2f} mm / "
                   f"{e['whole_push_error_deg_prior']:.2f}°), NMSE {e['nmse_online']:.2f} (prior {e['nmse_prior']:.2f})",
@@ -456,6 +461,8 @@ def build_parser() -> argparse.ArgumentParser:
     val.add_argument("--online", action="store_true",
                      help="also run the controller's UKF over each object's pushes in order: λ over time, "
                           "convergence, whole-push error and NMSE with the online estimate (online.json, lambda.png)")
+    val.add_argument("--estimate-mu", action="store_true",
+                     help="with --online: the UKF estimates μ_c as well, from --mu as its prior")
     val.add_argument("--quiet", action="store_true", help="no per-object lines on stderr")
     val.set_defaults(func=_cmd_validate)
 

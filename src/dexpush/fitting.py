@@ -127,16 +127,20 @@ def snap_contact(contour: Contour, X: np.ndarray, separation_mm: float) -> np.nd
     return X
 
 
-def one_step(contour: Contour, states: np.ndarray, inputs: np.ndarray, lam: np.ndarray, mu: float) -> np.ndarray:
+def one_step(contour: Contour, states: np.ndarray, inputs: np.ndarray, lam: np.ndarray,
+             mu: float | np.ndarray) -> np.ndarray:
     """The model's states (S, 5) after one 25 Hz period from ``states`` with ``inputs``; ``lam`` is (3,)
-    or one λ per sample (S, 3)."""
+    or one λ per sample (S, 3), ``mu`` one μ_c or one per sample (S,)."""
+    n = len(states)
+    lam = np.broadcast_to(np.asarray(lam, np.float32), (n, 3))
+    mu = np.broadcast_to(np.asarray(mu, np.float32), (n,))
     return np.asarray(_one_step(contour, jnp.asarray(states, jnp.float32), jnp.asarray(inputs, jnp.float32),
-                                jnp.asarray(lam, jnp.float32), jnp.float32(mu)), np.float64)
+                                jnp.asarray(lam), jnp.asarray(mu)), np.float64)
 
 
 @jax.jit
 def _one_step(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, lam: jnp.ndarray, mu: jnp.ndarray) -> jnp.ndarray:
-    return integrate(contour, x, u, 1.0 / RATE_HZ, lam, mu, 10)
+    return jax.vmap(lambda xi, ui, li, mi: integrate(contour, xi, ui, 1.0 / RATE_HZ, li, mi, 10))(x, u, lam, mu)
 
 
 @jax.jit

@@ -47,9 +47,10 @@ def _scan(est: EstimatorState, lam: jnp.ndarray, contour: Contour, X: jnp.ndarra
     dt = jnp.float32(1.0 / RATE_HZ)
 
     def body(carry, inp):
-        est, lam = carry
+        est, lam = carry                      # lam: λ_pred, and the planner's μ_c last with estimate_mu
         x, ok = inp
-        est, updated = estimator_observe(est, x, ok, contour, settings, mu, dt, substeps)
+        est, updated = estimator_observe(est, x, ok, contour, settings, lam[3] if settings.estimate_mu else mu,
+                                         dt, substeps)
         lam = rate_limited(lam, est.filter.mean, dt, settings)
         return (est, lam), (lam, updated, est.gated)
 
@@ -78,7 +79,7 @@ def online_session(pushes: list[Push], shape: Shape, prior: tuple[float, float, 
         frames.extend(snap_contact(contour, p.states, separation_mm))
         valid.extend([True] * len(p.states))
     est = estimator_init(jnp.asarray(prior, jnp.float32), settings, box=shape.footprint_box, mu=mu)
-    lam0 = est.filter.mean[:3]
+    lam0 = est.filter.mean                            # [β, x_bf, y_bf] (and μ_c with settings.estimate_mu)
     lam, updated, gated = (np.asarray(a) for a in _scan(est, lam0, contour, jnp.asarray(np.array(frames), jnp.float32),
                                                        jnp.asarray(valid), jnp.float32(mu), settings, substeps))
     lam = lam.astype(np.float64)
@@ -86,25 +87,30 @@ def online_session(pushes: list[Push], shape: Shape, prior: tuple[float, float, 
     after = [lam[(first[i + 1] if i + 1 < len(pushes) else len(lam)) - 1] for i in range(len(pushes))]
     final = after[-1]
     settled = next((i for i in range(len(pushes))
-                    if all(abs(np.log(a[0] / final[0])) <= SETTLE_LOG_BETA and np.all(np.abs(a[1:] - final[1:])
+                    if all(abs(np.log(a[0] / final[0])) <= SETTLE_LOG_BETA and np.all(np.abs(a[1:3] - final[1:3])
                                                                                      <= SETTLE_M)
                            for a in after[i:])), len(pushes) - 1)
-    online = [whole_push_errors(contour, [p], b, mu) for p, b in zip(pushes, before)]
+    mu_of = (lambda a: float(a[3])) if settings.estimate_mu else (lambda a: mu)
+    online = [whole_push_errors(contour, [p], b[:3], mu_of(b)) for p, b in zip(pushes, before)]
     prior_err = whole_push_errors(contour, pushes, np.asarray(prior), mu)
     # one-step displacements: each sample predicted with λ_pred before its push
     smp = samples(pushes, shape, separation_mm, stick_ratio=0.1, min_speed_mm_s=5.0)   # validate()'s defaults
-    lam_smp = np.stack([before[i] for i in smp.push_index])
+    lam_smp = np.stack([before[i][:3] for i in smp.push_index])
+    mu_smp = np.array([mu_of(before[i]) for i in smp.push_index])
     observed = _displacement(smp.next_pose, smp.states)
-    pred_online = _displacement(one_step(contour, smp.states, smp.inputs, lam_smp, mu), smp.states)
+    pred_online = _displacement(one_step(contour, smp.states, smp.inputs, lam_smp, mu_smp), smp.states)
     pred_prior = _displacement(one_step(contour, smp.states, smp.inputs, np.asarray(prior), mu), smp.states)
     summary = {
         "pushes": len(pushes), "prior": [float(v) for v in prior], "mu_c": mu,
-        "lambda_final": [round(float(v), 5) for v in final],
+        "lambda_final": [round(float(v), 5) for v in final[:3]],
+        **({"mu_c_final": round(float(final[3]), 4),
+            "mu_c_after_each_push": [round(float(a[3]), 3) for a in after]} if settings.estimate_mu else {}),
         "beta_after_each_push": [round(float(a[0]), 2) for a in after],
         "settled_after_push": int(settled) + 1,
         "updates": int(updated.sum()), "gated_windows": int(gated[-1]),
         "whole_push_error_mm_online": round(float(np.mean([e[0] for e in online])), 2),
         "whole_push_error_deg_online": round(float(np.mean([e[1] for e in online])), 2),
+        "whole_push_error_deg_each": [round(float(e[1]), 2) for e in online],
         "whole_push_error_mm_prior": round(prior_err[0], 2), "whole_push_error_deg_prior": round(prior_err[1], 2),
         "nmse_online": round(nmse(pred_online, observed), 3), "nmse_prior": round(nmse(pred_prior, observed), 3),
     }

@@ -329,13 +329,16 @@ def plot_params(params: np.ndarray, truth: object | None, path: str | os.PathLik
 
 def plot_online_lambda(traces: dict, path: str | os.PathLike | None = None) -> plt.Figure:
     """λ_pred over a session of recorded pushes per object (``validate-mit --online``): β, x_bf, y_bf
-    against time; ``traces`` maps a name to (time (T,), λ_pred (T, 3))."""
-    fig, axes = plt.subplots(3, 1, figsize=(7, 5.5), sharex=True)
-    labels = ("β (1/m)", "x_bf (mm)", "y_bf (mm)")
-    scale = (1.0, 1000.0, 1000.0)
+    (and μ_c, where the traces have a 4th column) against time; ``traces`` maps a name to
+    (time (T,), λ_pred (T, 3) or (T, 4))."""
+    rows = max(np.asarray(lam).shape[1] for _, lam in traces.values())
+    fig, axes = plt.subplots(rows, 1, figsize=(7, 1.8 * rows + 0.1), sharex=True)
+    labels = ("β (1/m)", "x_bf (mm)", "y_bf (mm)", "μ_c")
+    scale = (1.0, 1000.0, 1000.0, 1.0)
     for name, (t, lam) in sorted(traces.items()):
-        for i, ax in enumerate(axes):
-            ax.plot(t, np.asarray(lam)[:, i] * scale[i], label=name)
+        lam = np.asarray(lam)
+        for i in range(lam.shape[1]):
+            axes[i].plot(t, lam[:, i] * scale[i], label=name)
     for ax, label in zip(axes, labels):
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
