@@ -255,3 +255,31 @@ def test_a_plan_from_inside_the_margin_keeps_its_start_clearance_as_margin() -> 
     assert plan_margin(inside, scene, CostWeights(C_margin=None)) is scene       # the binary margin: as given
     free = Scene.make(shape, (0.6, 0, 0), (), w)
     assert plan_margin(inside, free, w) is free
+
+
+def test_without_obstacles_the_margin_settings_leave_the_plan_bit_identical() -> None:
+    """Tasks I and II have no obstacles: the graded margin, the binary one and a wider margin must give
+    the same plans, bit for bit (the benchmark keeps their committed rows on this)."""
+    import dataclasses
+    import functools
+
+    from dexpush.controller import ControllerSettings, plan_step, policy_init
+    from dexpush.model import LAMBDA_TRUE, Contour
+
+    shape = Shape.tee()
+    contour = Contour.of(shape)
+    base = ControllerSettings(stall_after_s=None)
+    x = jnp.asarray([0.0, 0.0, 0.1, -0.03, -0.2], jnp.float32)
+    plans = []
+    for w in (CostWeights(), CostWeights(C_margin=None), CostWeights(obstacle_margin_m=0.03, C_margin=1e8)):
+        settings = dataclasses.replace(base, weights=w)
+        scene = Scene.make(shape, (0.6, 0.3, 0.0), (), w)
+        step = jax.jit(functools.partial(plan_step, contour=contour, scene=scene, settings=settings))
+        state = policy_init(LAMBDA_TRUE, settings, 11)
+        for _ in range(3):
+            state, u, result = step(state, x)
+        plans.append((np.asarray(u), np.asarray(result.sequence), float(result.cost_min)))
+    for u, seq, cost in plans[1:]:
+        np.testing.assert_array_equal(u, plans[0][0])
+        np.testing.assert_array_equal(seq, plans[0][1])
+        assert cost == plans[0][2]
