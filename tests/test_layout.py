@@ -14,7 +14,7 @@ LAYERS = [
     {"fastmath", "se2", "checks", "files", "compile_cache", "polygons", "xla_options", "arguments"},
     {"geometry", "interfaces", "corner", "noise"},
     {"model"},
-    {"cost", "mppi", "ukf", "tasks", "fitting"},
+    {"cost", "mppi", "ukf", "tasks", "fitting", "proposals"},
     {"estimator", "dataset", "viz"},
     {"controller", "plants", "sensing", "gcs", "logs", "online"},
     {"simulate"},

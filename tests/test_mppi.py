@@ -55,6 +55,23 @@ def test_clipping_holds_for_every_output(seed: int, scale: float) -> None:
     assert np.all(np.abs(np.asarray(res.sequence)) <= 0.1 / np.sqrt(2) + 1e-7)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_sampled_update_keeps_a_nominal_at_the_bound_and_the_clipped_one_drags_it_inward(seed: int) -> None:
+    """A target far off along +x: the best input is the bound v_max/√2 in every slot. From a nominal there,
+    the sampled update (clip the average of U + ε) stays on it; the clipped one (average of clip(U + ε))
+    comes off it, as every sample below the bound has some weight and none can lie above it (the more, the
+    broader the weights: τ = 0.5 here)."""
+    bound = 0.1 / np.sqrt(2)
+    U = jnp.zeros((25, 2)).at[:, 0].set(bound)
+    x0, target = jnp.zeros(2), jnp.array([5.0, 0.0])
+    key = jax.random.PRNGKey(seed)
+    sampled = point_mass_planner(num_samples=256, update="sampled", temperature=0.5)(key, U, x0, None, target)
+    clipped = point_mass_planner(num_samples=256, update="clipped", temperature=0.5)(key, U, x0, None, target)
+    np.testing.assert_allclose(np.asarray(sampled.sequence)[:, 0], bound, rtol=1e-6)
+    assert float(np.mean(np.asarray(clipped.sequence)[:, 0])) < bound - 1e-3
+    assert float(sampled.cost_min) == pytest.approx(float(clipped.cost_min))   # the same samples, rolled out
+
+
 def test_warm_start_shift_is_exact_in_time_for_a_linear_sequence() -> None:
     s = MPPISettings()
     d = s.step_durations()
@@ -77,7 +94,7 @@ def test_step_durations_follow_the_paper() -> None:
 
 
 @pytest.mark.parametrize("bad", [dict(num_samples=0), dict(temperature=0.0), dict(noise_sigma=-1.0),
-                                 dict(refine_fraction=1.5), dict(control_cost=-1.0)])
+                                 dict(refine_fraction=1.5), dict(control_cost=-1.0), dict(update="mean")])
 def test_bad_settings(bad: dict) -> None:
     with pytest.raises(ValueError, match=next(iter(bad))):
         MPPISettings(**bad)

@@ -170,7 +170,7 @@ def run_settings(plant: str, sensor: SensorSettings | None, settings: Controller
 #: controller options that are on by default but were added after results folders were started:
 #: the value that a folder without the key was made with (the option did not exist, so it was off)
 BEFORE_THEY_EXISTED = {"stall_after_s": None, "endgame_temperature": None,
-                       "weights": {"detour": False, "C_margin": None}}
+                       "weights": {"detour": False, "C_margin": None}, "mppi": {"update": "clipped"}}
 
 
 def _with_defaults(saved: object, defaults: dict) -> object:

@@ -281,7 +281,8 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
     # the controller options given on the command line (None: not given, so the default)
     flags = {"--detour": args.detour, "--stall-after": args.stall_after, "--temperature": args.temperature,
              "--endgame-temperature": args.endgame_temperature, "--margin-cost": args.margin_cost,
-             "--obstacle-margin": args.obstacle_margin}
+             "--obstacle-margin": args.obstacle_margin, "--contact-proposals": args.contact_proposals,
+             "--mppi-update": args.mppi_update}
     settings = None
     if any(v is not None for v in flags.values()):
         default = ControllerSettings()
@@ -289,12 +290,16 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
                           C_margin=_or_off(args.margin_cost, default.weights.C_margin),
                           obstacle_margin_m=(default.weights.obstacle_margin_m if args.obstacle_margin is None
                                              else args.obstacle_margin))
-        mppi = default.mppi if args.temperature is None else replace(default.mppi, temperature=args.temperature)
+        mppi = replace(default.mppi,
+                       temperature=default.mppi.temperature if args.temperature is None else args.temperature,
+                       update=default.mppi.update if args.mppi_update is None else args.mppi_update)
         settings = replace(default, weights=weights, mppi=mppi,
                            stall_after_s=_or_off(args.stall_after, default.stall_after_s),
-                           endgame_temperature=_or_off(args.endgame_temperature, default.endgame_temperature))
+                           endgame_temperature=_or_off(args.endgame_temperature, default.endgame_temperature),
+                           contact_proposals=(default.contact_proposals if args.contact_proposals is None
+                                              else args.contact_proposals))
     options = "".join((" --detour" if v else " --no-detour") if k == "--detour" else
-                      f" {k} {v if v == 'off' else f'{v:g}'}" for k, v in flags.items() if v is not None)
+                      f" {k} {v if isinstance(v, str) else f'{v:g}'}" for k, v in flags.items() if v is not None)
     t0 = time.perf_counter()
     records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
                             lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures,
@@ -450,6 +455,14 @@ def build_parser() -> argparse.ArgumentParser:
                        help="inside the 1-cm obstacle margin a state costs C times its depth into it, or the "
                             "collision penalty (off) (CostWeights.C_margin; docs/controller.md#the-margin; "
                             "default: 1e9)")
+    bench.add_argument("--contact-proposals", type=int, default=None, metavar="J",
+                       help="J of MPPI's exploring samples walk round the object to J contact points and push "
+                            "(ControllerSettings.contact_proposals; docs/controller.md#contact-proposals; "
+                            "default: 0, none)")
+    bench.add_argument("--mppi-update", choices=("sampled", "clipped"), default=None,
+                       help="MPPI's update: average the sampled inputs and clip the average (sampled), or "
+                            "average the clipped samples (clipped) (MPPISettings.update; "
+                            "docs/controller.md#the-update; default: sampled)")
     bench.add_argument("--out", default="out/bench", help="output folder; re-running resumes (default out/bench)")
     bench.add_argument("--quiet", action="store_true", help="no progress output")
     bench.set_defaults(func=_cmd_bench)

@@ -35,6 +35,7 @@ from dexpush.geometry import Shape
 from dexpush.interfaces import Observation
 from dexpush.model import LAMBDA_TRUE, Contour, contact_gap, integrate, step
 from dexpush.mppi import MPPIResult, MPPISettings, mppi_iteration, shift_in_time, slot_durations
+from dexpush.proposals import contact_proposals
 from dexpush.se2 import wrap_angle
 
 __all__ = ["ControllerSettings", "ControllerState", "PushingController", "estimate_step", "plan_step", "policy_init",
@@ -77,6 +78,11 @@ class ControllerSettings:
     #: hover (docs/controller.md#the-endgame-temperature)
     endgame_temperature: float | None = 0.005
     endgame_distance_m: float = 0.04
+    #: this many of MPPI's exploring samples are contact proposals (:mod:`dexpush.proposals`): walks
+    #: round the object to J evenly spaced contact points, then a push; 0 samples only noise
+    #: (docs/controller.md#contact-proposals)
+    contact_proposals: int = 0
+    proposal_clearance_m: float = 0.015   #: the walks' radial distance from the inflated contour
 
     def __post_init__(self) -> None:
         for name, kind in (("mppi", MPPISettings), ("weights", CostWeights), ("ukf", UKFSettings)):
@@ -101,6 +107,12 @@ class ControllerSettings:
         if self.endgame_temperature is not None:
             check_positive("endgame_temperature", self.endgame_temperature, "or None")
         check_nonnegative("endgame_distance_m", self.endgame_distance_m, "m")
+        if int(self.contact_proposals) != self.contact_proposals or not (
+                0 <= self.contact_proposals <= self.mppi.num_samples - round(self.mppi.refine_fraction
+                                                                             * self.mppi.num_samples) - 1):
+            raise ValueError(f"contact_proposals must be a whole number from 0 to the exploring samples less one, "
+                             f"got {self.contact_proposals!r}")
+        check_positive("proposal_clearance_m", self.proposal_clearance_m, "m")
 
 
 class ControllerState(NamedTuple):
@@ -215,12 +227,17 @@ def watch_progress(state: ControllerState, x: jnp.ndarray, *, contour: Contour, 
                           stalls=state.stalls + restarts, streak=streak + restarts, stretch=stretch), stalled
 
 
+def _near_goal(x: jnp.ndarray, scene: Scene, settings: ControllerSettings) -> jnp.ndarray:
+    """Whether the object is within ``endgame_distance_m`` of the goal (position, round the obstacles)."""
+    return goal_distance_sq(x, scene, 0.0) <= settings.endgame_distance_m ** 2
+
+
 def _temperature(x: jnp.ndarray, scene: Scene, settings: ControllerSettings) -> jnp.ndarray | None:
     """τ for this iteration: ``endgame_temperature`` within ``endgame_distance_m`` of the goal."""
     if settings.endgame_temperature is None:
         return None
-    near = goal_distance_sq(x, scene, 0.0) <= settings.endgame_distance_m ** 2
-    return jnp.where(near, jnp.float32(settings.endgame_temperature), jnp.float32(settings.mppi.temperature))
+    return jnp.where(_near_goal(x, scene, settings), jnp.float32(settings.endgame_temperature),
+                     jnp.float32(settings.mppi.temperature))
 
 
 def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene: Scene,
@@ -250,7 +267,9 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
         dynamics=lambda xs, u, dt, p: step(contour, xs, u, dt, p, mu),
         running_cost=lambda xs, sc: running_cost(xs, sc, weights),
         terminal_cost=lambda xs, sc: terminal_cost(xs, sc, weights), settings=mp, horizon_scale=stretch,
-        temperature=_temperature(x, scene, settings))
+        temperature=_temperature(x, scene, settings),
+        proposals=contact_proposals(x, contour, slot_durations(mp, stretch), settings.contact_proposals,
+                                    mp.v_clip, settings.proposal_clearance_m) if settings.contact_proposals else None)
     finite = jnp.all(jnp.isfinite(result.sequence))
     u = jnp.where(finite, jnp.clip(result.sequence[0], -mp.v_clip, mp.v_clip), 0.0)
     durations = slot_durations(mp, stretch)
