@@ -227,17 +227,12 @@ def watch_progress(state: ControllerState, x: jnp.ndarray, *, contour: Contour, 
                           stalls=state.stalls + restarts, streak=streak + restarts, stretch=stretch), stalled
 
 
-def _near_goal(x: jnp.ndarray, scene: Scene, settings: ControllerSettings) -> jnp.ndarray:
-    """Whether the object is within ``endgame_distance_m`` of the goal (position, round the obstacles)."""
-    return goal_distance_sq(x, scene, 0.0) <= settings.endgame_distance_m ** 2
-
-
 def _temperature(x: jnp.ndarray, scene: Scene, settings: ControllerSettings) -> jnp.ndarray | None:
     """τ for this iteration: ``endgame_temperature`` within ``endgame_distance_m`` of the goal."""
     if settings.endgame_temperature is None:
         return None
-    return jnp.where(_near_goal(x, scene, settings), jnp.float32(settings.endgame_temperature),
-                     jnp.float32(settings.mppi.temperature))
+    near = goal_distance_sq(x, scene, 0.0) <= settings.endgame_distance_m ** 2
+    return jnp.where(near, jnp.float32(settings.endgame_temperature), jnp.float32(settings.mppi.temperature))
 
 
 def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene: Scene,

@@ -8,7 +8,7 @@ object's own contour, that :func:`dexpush.mppi.mppi_iteration` evaluates beside 
 informed sampling distribution in the spirit of Trevisan & Alonso-Mora's biased MPPI, 2024): a
 proposal wins only if its predicted cost is lower, through the same model and cost.
 
-Proposal j, for the contact azimuth φ_j = 2πj/J in {B} (j = 0 … J−1), from the pusher's azimuth
+Proposal j, for the contact azimuth φ_j = −π + 2πj/J in {B} (j = 0 … J−1), from the pusher's azimuth
 φ₀ and distance r₀ = ‖p_c − p_b‖ in {B}:
 
     walk:   φ(s) = φ₀ + s·wrap(φ_j − φ₀),   ρ(s) = R(φ(s)) + c + (r₀ − R(φ₀) − c)·(1 − s)⁴,  s ∈ [0, 1]
