@@ -17,6 +17,7 @@ from dexpush.benchmark import run_benchmark
 from dexpush.cli import main
 from dexpush.controller import ControllerSettings
 from dexpush.cost import CostWeights
+from dexpush.mppi import MPPISettings
 from dexpush.records import summarize
 from dexpush.sensing import SensorSettings
 from dexpush.tables import write_tables
@@ -62,29 +63,33 @@ def test_a_folder_refuses_runs_with_other_settings(tmp_path: Path) -> None:
         del saved["settings"]["controller"][key]
     for key in ("detour", "C_margin"):
         del saved["settings"]["controller"]["weights"][key]
+    del saved["settings"]["controller"]["mppi"]["update"]
     (tmp_path / "settings.json").write_text(json.dumps(saved))
-    with pytest.raises(ValueError, match=r"endgame_temperature: None there, 0.005 now; controller.stall_after_s: "
-                                         r"None there, 4.0 now; controller.weights.C_margin: None there"):
+    with pytest.raises(ValueError, match=r"endgame_temperature: None there, 0.005 now; controller.mppi.update: "
+                                         r"'clipped' there, 'sampled' now; controller.stall_after_s: None there"):
         run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
                       figures=False)
     run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
                   figures=False, settings=ControllerSettings(weights=CostWeights(detour=False, C_margin=None),
-                                                             stall_after_s=None, endgame_temperature=None))
+                                                             stall_after_s=None, endgame_temperature=None,
+                                                             mppi=MPPISettings(update="clipped")))
 
 
 def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path: Path) -> None:
     assert main(["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi", "--seeds", "0",
                  "--max-steps", "2", "--lanes", "1", "--no-detour", "--stall-after", "off", "--temperature", "0.05",
-                 "--endgame-temperature", "off", "--margin-cost", "off", "--no-figures", "--quiet",
-                 "--out", str(tmp_path)]) == 0
+                 "--endgame-temperature", "off", "--margin-cost", "off", "--mppi-update", "clipped",
+                 "--contact-proposals", "4", "--no-figures", "--quiet", "--out", str(tmp_path)]) == 0
     controller = json.loads((tmp_path / "settings.json").read_text())["settings"]["controller"]
     assert controller["weights"]["detour"] is False and controller["stall_after_s"] is None
     assert controller["mppi"]["temperature"] == 0.05 and controller["endgame_temperature"] is None
     assert controller["weights"]["C_margin"] is None
-    command = "--no-detour --stall-after off --temperature 0.05 --endgame-temperature off --margin-cost off"
+    assert controller["mppi"]["update"] == "clipped" and controller["contact_proposals"] == 4
+    command = ("--no-detour --stall-after off --temperature 0.05 --endgame-temperature off --margin-cost off "
+               "--contact-proposals 4 --mppi-update clipped")
     assert command in (tmp_path / "benchmark.md").read_text()
     for bad in (["--stall-after", "0"], ["--temperature", "0"], ["--temperature", "nan"],
-                ["--endgame-temperature", "-1"], ["--margin-cost", "0"]):
+                ["--endgame-temperature", "-1"], ["--margin-cost", "0"], ["--mppi-update", "mean"]):
         with pytest.raises(SystemExit):
             main(["bench", *bad, "--out", str(tmp_path)])
 
