@@ -257,17 +257,17 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
     key, sub = jax.random.split(state.key)
     weights, mu = settings.weights, state.mu
     plan_scene = plan_margin(x, scene, weights)     # from inside the margin: no nearer than now
+    durations = slot_durations(mp, stretch)
     result = mppi_iteration(
         sub, state.sequence, tuple(x[i] for i in range(5)), state.params, plan_scene,   # rollouts carry a tuple
         dynamics=lambda xs, u, dt, p: step(contour, xs, u, dt, p, mu),
         running_cost=lambda xs, sc: running_cost(xs, sc, weights),
         terminal_cost=lambda xs, sc: terminal_cost(xs, sc, weights), settings=mp, horizon_scale=stretch,
         temperature=_temperature(x, scene, settings),
-        proposals=contact_proposals(x, contour, slot_durations(mp, stretch), settings.contact_proposals,
+        proposals=contact_proposals(x, contour, durations, settings.contact_proposals,
                                     mp.v_clip, settings.proposal_clearance_m) if settings.contact_proposals else None)
     finite = jnp.all(jnp.isfinite(result.sequence))
     u = jnp.where(finite, jnp.clip(result.sequence[0], -mp.v_clip, mp.v_clip), 0.0)
-    durations = slot_durations(mp, stretch)
     shifted = jnp.where(finite, shift_in_time(result.sequence, durations, mp.control_period), 0.0)
     return state._replace(sequence=shifted, key=key), u, result
 
