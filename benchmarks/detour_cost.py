@@ -6,7 +6,7 @@ The same controller step (``plan_step``) for Task III on the T, with the paper's
 goal distance of eq. (9) and no stall watch (the defaults), and with the two options on
 (``CostWeights(detour=True)``, ``stall_after_s=4``): the goal distance measured round the
 obstacle (``dexpush.cost.detour_length_sq``) in every rollout state, and the stall watch
-(``dexpush.controller.watch_progress``) once per iteration. Run on an idle machine; the
+(``dexpush.policy.watch_progress``) once per iteration. Run on an idle machine; the
 variants are timed in alternating rounds so that drift in machine load hits both alike.
 """
 

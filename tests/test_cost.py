@@ -9,6 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from hypothesis import given
+from hypothesis import settings as hypothesis_settings
 from hypothesis import strategies as st
 
 from dexpush import Shape
@@ -283,3 +284,70 @@ def test_without_obstacles_the_margin_settings_leave_the_plan_bit_identical() ->
         np.testing.assert_array_equal(u, plans[0][0])
         np.testing.assert_array_equal(seq, plans[0][1])
         assert cost == plans[0][2]
+
+
+def test_the_plan_margin_grows_by_the_allowance_and_never_beyond_the_start_clearance() -> None:
+    from dexpush.cost import plan_margin
+
+    shape, w = Shape.rectangle(), CostWeights()
+    scene = Scene.make(shape, (0.6, 0, 0), ((0.30, 0.0, 0.05),), w)
+    face = 0.30 - 0.10 - 0.05
+    for gap, extra, want in ((0.05, 0.0, 0.01), (0.05, 0.015, 0.025), (0.018, 0.015, 0.018), (0.004, 0.015, 0.004)):
+        x = jnp.asarray([face - gap, 0.0, 0.0, -0.3, 0.0], jnp.float32)
+        assert float(plan_margin(x, scene, w, extra).margin) == pytest.approx(want, abs=1e-6)
+
+
+@hypothesis_settings(max_examples=40)
+@given(st.floats(-0.5, 0.5), st.floats(-0.5, 0.5), st.floats(-np.pi, np.pi), st.floats(-0.05, 0.05),
+       st.floats(-0.05, 0.05), st.floats(-0.6, 0.6))
+def test_footprint_shift_is_the_farthest_moving_point(x: float, y: float, th: float, dx: float, dy: float,
+                                                      dth: float) -> None:
+    """Against a dense float64 sampling of the footprint's outline: the largest displacement of any
+    outline point between the two poses (a corner attains it); a pure translation moves every point by it."""
+    from dexpush.se2 import footprint_shift, rotate
+
+    shape = Shape.tee()
+    a, b = shape.edges
+    t = np.linspace(0.0, 1.0, 41)
+    pts = (a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]).reshape(-1, 2)
+    q0, q1 = np.array([x, y, th]), np.array([x + dx, y + dy, th + dth])
+
+    def world(q: np.ndarray) -> np.ndarray:
+        return rotate(pts, q[2]) + q[:2]
+    want = np.max(np.linalg.norm(world(q1) - world(q0), axis=1))
+    assert footprint_shift(a, q0, q1) == pytest.approx(want, rel=1e-9, abs=1e-12)
+    assert footprint_shift(a, q0, np.array([x + dx, y + dy, th])) == pytest.approx(np.hypot(dx, dy), abs=1e-12)
+
+
+def test_a_plan_from_a_predicted_state_keeps_the_grown_margin() -> None:
+    """The box 1.6 cm from the disc, the pusher behind it, ``prediction_margin_gain`` 1. From an
+    observed state (predicted 0 m) the plan closes in on the 1-cm margin; from a state predicted
+    1.5 cm on from its frame the margin is 2.5 cm, more than the start's clearance, so the plan
+    comes no nearer than it started."""
+    import dataclasses
+    import functools
+
+    from dexpush.controller import ControllerSettings, plan_step, policy_init
+    from dexpush.cost import clearance
+    from dexpush.model import LAMBDA_TRUE, Contour, integrate
+
+    shape = Shape.rectangle()
+    contour = Contour.of(shape)
+    settings = dataclasses.replace(ControllerSettings(stall_after_s=None), prediction_margin_gain=1.0)
+    scene = Scene.make(shape, (0.6, 0.0, 0.0), ((0.30, 0.0, 0.05),), settings.weights)
+    x = jnp.asarray([0.30 - 0.10 - 0.05 - 0.016, -0.03, 0.0, 0.30 - 0.155 - 0.11 - 0.012, -0.03], jnp.float32)
+    start = float(clearance(x, scene))
+    step = jax.jit(functools.partial(plan_step, contour=contour, scene=scene, settings=settings))
+
+    def closest(predicted_m: float) -> float:
+        state = policy_init(LAMBDA_TRUE, settings, 3)
+        for _ in range(10):
+            state, _, result = step(state, x, predicted_m=jnp.float32(predicted_m))
+        xs, gaps = x, []
+        for u, dt in zip(np.asarray(result.sequence), settings.mppi.step_durations(), strict=True):
+            xs = integrate(contour, xs, jnp.asarray(u), jnp.float32(dt), jnp.asarray(LAMBDA_TRUE), jnp.float32(0.3), 4)
+            gaps.append(float(clearance(xs, scene)))
+        return min(gaps)
+
+    assert closest(0.0) < start - 0.002        # measured: 16.0 → 9.1 mm, into the 1-cm margin's room
+    assert closest(0.015) >= start - 1e-4      # measured: never nearer than 16.0 mm

@@ -16,13 +16,14 @@ LAYERS = [
     {"model"},
     {"cost", "mppi", "ukf", "tasks", "fitting", "proposals"},
     {"estimator", "dataset", "viz"},
+    {"policy"},
     {"controller", "plants", "sensing", "gcs", "logs", "online"},
     {"simulate"},
     {"registry"},
     {"records", "config"},
     {"runner"},
     {"tables"},
-    {"benchmark"},
+    {"benchmark", "planner_flags"},
     {"env", "cli", "__init__"},
 ]
 RANK = {name: i for i, layer in enumerate(LAYERS) for name in layer}

@@ -77,6 +77,7 @@ def test_planning_state_is_the_frame_predicted_to_the_present() -> None:
     from dexpush import PushingController, Shape
     from dexpush.interfaces import Observation
     from dexpush.model import LAMBDA_TRUE
+    from dexpush.se2 import footprint_shift
 
     shape = Shape.rectangle()
     ctrl = PushingController(shape, goal=(1.6, 2.3, 0.0), params=LAMBDA_TRUE)
@@ -87,6 +88,16 @@ def test_planning_state_is_the_frame_predicted_to_the_present() -> None:
     ctrl.reset()
     u0 = ctrl.act(Observation(pose, pusher, 0.0))                      # fresh: the frame itself
     np.testing.assert_allclose(ctrl.planning_state, np.r_[pose, pusher], atol=1e-6)
+    assert ctrl.prediction_shift_m == 0.0
     ctrl.act(Observation(pose, pusher, 0.0))                           # a period old: moved on by u0
     np.testing.assert_allclose(ctrl.planning_state[3:], pusher + 0.04 * u0, atol=1e-6)
     assert np.linalg.norm(u0) > 0.01
+    # the prediction's shift, which the obstacle margin grows with, is the footprint's from the frame
+    corners = shape.edges[0]
+    moved = footprint_shift(corners, pose, ctrl.planning_state[:3])
+    assert ctrl.prediction_shift_m == pytest.approx(moved, abs=1e-6) and moved > 1e-4
+    ctrl.act(None)                                                     # no frame: on from the same frame
+    further = footprint_shift(corners, pose, ctrl.planning_state[:3])
+    assert ctrl.prediction_shift_m == pytest.approx(further, abs=1e-6) and further > moved
+    ctrl.command(pose, pusher)                                         # an exact observation: nothing predicted
+    assert ctrl.prediction_shift_m == 0.0

@@ -124,15 +124,15 @@ def test_stretched_slots_keep_the_first_one_and_scale_the_rest() -> None:
     np.testing.assert_allclose(slot_durations(s), base, rtol=1e-6)
 
 
-def test_the_watch_is_on_by_default_and_keeps_the_papers_horizon() -> None:
+def test_the_watch_is_on_by_default_and_doubles_the_horizon_after_a_stall() -> None:
     s = ControllerSettings()
-    assert s.stall_after_s == 4.0 and s.stall_horizon_scale == 1.0 and s.weights.detour
+    assert s.stall_after_s == 4.0 and s.stall_horizon_scale == 2.0 and s.weights.detour
 
 
-def test_without_a_stretch_the_plan_never_depends_on_the_stretch_field() -> None:
-    """With ``stall_horizon_scale`` = 1 the slots stay constants of the program (a traced per-lane
-    scale made the batched step 2.2x slower); a stale ``stretch`` in the state changes nothing."""
-    s = ControllerSettings()
+def test_the_plan_follows_the_stretch_field_only_when_the_horizon_may_stretch() -> None:
+    """With ``stall_horizon_scale`` = 1 (the paper's horizon always) a stale ``stretch`` in the state
+    changes nothing; with the default it does."""
+    s = ControllerSettings(stall_horizon_scale=1.0)
     plan = jax.jit(functools.partial(plan_step, contour=CONTOUR, scene=SCENE, settings=s))
     state, x = policy_init(LAMBDA_TRUE, s, 3), _state_at(0.0, pusher_gap=0.0)
     state = state._replace(best=jnp.float32(0.0))      # no progress now, so a stretch would be kept
@@ -140,6 +140,12 @@ def test_without_a_stretch_the_plan_never_depends_on_the_stretch_field() -> None
     b = plan(state._replace(stretch=jnp.float32(2.0)), x)
     np.testing.assert_array_equal(a[1], b[1])
     np.testing.assert_array_equal(a[0].sequence, b[0].sequence)
+    # with the default (2) the plan does follow the stretch
+    default = ControllerSettings()
+    plan = jax.jit(functools.partial(plan_step, contour=CONTOUR, scene=SCENE, settings=default))
+    state = policy_init(LAMBDA_TRUE, default, 3)._replace(best=jnp.float32(0.0))
+    a, b = plan(state, x), plan(state._replace(stretch=jnp.float32(2.0)), x)
+    assert float(b[2].cost_min) != float(a[2].cost_min)
 
 
 def test_stall_settings_are_checked() -> None:
@@ -172,3 +178,32 @@ def test_near_the_goal_the_plan_weights_its_samples_with_the_endgame_temperature
     assert not np.array_equal(_plan(endgame, near), _plan(off, near))
     with pytest.raises(ValueError, match="endgame_temperature"):
         ControllerSettings(endgame_temperature=0.0)
+
+
+def test_a_horizon_stretched_through_the_inputs_plans_as_one_stretched_through_the_slots() -> None:
+    """``rate_independent``: s·v held for Δt instead of v for s·Δt; the same samples, so the same
+    plan to float32 round-off, on the T beside the obstacle of Task III (the C-GVMM is quasi-static)."""
+    from dexpush.cost import running_cost, terminal_cost
+    from dexpush.model import step
+    from dexpush.mppi import mppi_iteration
+
+    shape = Shape.tee()
+    contour = Contour.of(shape)
+    s = ControllerSettings()
+    scene = Scene.make(shape, (0.6, 0.0, 0.0), ((0.30, 0.0, 0.05),), s.weights)
+    x = (0.154, 0.07, -0.527, -0.053, 0.147)           # a stall beside the obstacle on the physics plant
+    x = tuple(jnp.float32(v) for v in x)
+
+    @functools.partial(jax.jit, static_argnames="rate_independent")
+    def plan(scale: jnp.ndarray, rate_independent: bool):
+        return mppi_iteration(jax.random.key(4), jnp.zeros((s.mppi.horizon, 2), jnp.float32), x,
+                              jnp.asarray(LAMBDA_TRUE, jnp.float32), scene,
+                              dynamics=lambda xs, u, dt, p: step(contour, xs, u, dt, p, 0.3),
+                              running_cost=lambda xs, sc: running_cost(xs, sc, s.weights),
+                              terminal_cost=lambda xs, sc: terminal_cost(xs, sc, s.weights), settings=s.mppi,
+                              horizon_scale=scale, rate_independent=rate_independent)
+
+    for scale in (1.0, 2.0):
+        a, b = plan(jnp.float32(scale), False), plan(jnp.float32(scale), True)
+        assert float(b.cost_min) == pytest.approx(float(a.cost_min), rel=1e-5)
+        np.testing.assert_allclose(b.sequence, a.sequence, atol=1e-4)

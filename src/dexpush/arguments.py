@@ -6,7 +6,8 @@ from __future__ import annotations
 import argparse
 import math
 
-__all__ = ["floats", "positive_float", "positive_int", "positive_or_off", "seed", "seed_list", "stall_time"]
+__all__ = ["at_least_one", "floats", "nonnegative_float", "positive_float", "positive_int", "positive_or_off", "seed",
+           "seed_list", "stall_time"]
 
 
 def floats(count: int, what: str):
@@ -67,6 +68,28 @@ def positive_float(text: str) -> float:
         v = float("nan")
     if not 0 < v < float("inf"):
         raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
+    return v
+
+
+def nonnegative_float(text: str) -> float:
+    """A finite number >= 0."""
+    try:
+        v = float(text)
+    except ValueError:
+        v = float("nan")
+    if not 0 <= v < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a number >= 0, got {text!r}")
+    return v
+
+
+def at_least_one(text: str) -> float:
+    """A finite number >= 1 (a scale that only stretches)."""
+    try:
+        v = float(text)
+    except ValueError:
+        v = float("nan")
+    if not 1 <= v < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a number >= 1, got {text!r}")
     return v
 
 

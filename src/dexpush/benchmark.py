@@ -169,7 +169,7 @@ def run_settings(plant: str, sensor: SensorSettings | None, settings: Controller
 
 #: controller options that are on by default but were added after results folders were started:
 #: the value that a folder without the key was made with (the option did not exist, so it was off)
-BEFORE_THEY_EXISTED = {"stall_after_s": None, "endgame_temperature": None,
+BEFORE_THEY_EXISTED = {"stall_after_s": None, "endgame_temperature": None, "prediction_margin_gain": 0.0,
                        "weights": {"detour": False, "C_margin": None}, "mppi": {"update": "clipped"}}
 
 

@@ -19,11 +19,11 @@ import os
 import sys
 import time
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 
-from dexpush.arguments import floats, positive_float, positive_int, positive_or_off, seed, seed_list, stall_time
+from dexpush.arguments import floats, positive_int, seed, seed_list
 from dexpush.benchmark import BENCH_LANES
+from dexpush.planner_flags import add_planner_flags, planner_settings
 from dexpush.records import CONDITION_KEYS
 from dexpush.registry import ALL_METHODS, PARAMS, PLANTS, SHAPES
 from dexpush.tasks import MAX_STEPS
@@ -252,17 +252,11 @@ def _sensor_text(args: argparse.Namespace) -> str:
     return "".join(parts)
 
 
-def _or_off(value: float | str | None, default: float | None) -> float | None:
-    """A ``positive_or_off`` flag's value as a setting: the default when not given, None for off."""
-    return default if value is None else None if value == "off" else value
-
-
 def _cmd_bench(args: argparse.Namespace) -> dict:
     import datetime
     import platform
 
     from dexpush.benchmark import folder_records, run_benchmark
-    from dexpush.controller import ControllerSettings
     from dexpush.tables import write_tables
     from dexpush.tasks import get_task
 
@@ -278,28 +272,7 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
         if args.plant not in ("physics", "physics-random"):
             raise ValueError("--randomize randomises the physics plant's world: use it with --plant physics")
         args.plant = "physics-random"
-    # the controller options given on the command line (None: not given, so the default)
-    flags = {"--detour": args.detour, "--stall-after": args.stall_after, "--temperature": args.temperature,
-             "--endgame-temperature": args.endgame_temperature, "--margin-cost": args.margin_cost,
-             "--obstacle-margin": args.obstacle_margin, "--contact-proposals": args.contact_proposals,
-             "--mppi-update": args.mppi_update}
-    settings = None
-    if any(v is not None for v in flags.values()):
-        default = ControllerSettings()
-        weights = replace(default.weights, detour=default.weights.detour if args.detour is None else args.detour,
-                          C_margin=_or_off(args.margin_cost, default.weights.C_margin),
-                          obstacle_margin_m=(default.weights.obstacle_margin_m if args.obstacle_margin is None
-                                             else args.obstacle_margin))
-        mppi = replace(default.mppi,
-                       temperature=default.mppi.temperature if args.temperature is None else args.temperature,
-                       update=default.mppi.update if args.mppi_update is None else args.mppi_update)
-        settings = replace(default, weights=weights, mppi=mppi,
-                           stall_after_s=_or_off(args.stall_after, default.stall_after_s),
-                           endgame_temperature=_or_off(args.endgame_temperature, default.endgame_temperature),
-                           contact_proposals=(default.contact_proposals if args.contact_proposals is None
-                                              else args.contact_proposals))
-    options = "".join((" --detour" if v else " --no-detour") if k == "--detour" else
-                      f" {k} {v if isinstance(v, str) else f'{v:g}'}" for k, v in flags.items() if v is not None)
+    settings, options = planner_settings(args)
     t0 = time.perf_counter()
     records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
                             lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures,
@@ -434,35 +407,7 @@ def build_parser() -> argparse.ArgumentParser:
     sensor_args(bench)
     bench.add_argument("--max-steps", type=positive_int, default=MAX_STEPS,
                        help=f"control steps before a trial fails (default {MAX_STEPS})")
-    bench.add_argument("--detour", action=argparse.BooleanOptionalAction, default=None,
-                       help="measure the goal distance round the obstacles (default), or straight through them "
-                            "as eq. (9) is written (--no-detour; CostWeights.detour; "
-                            "docs/controller.md#going-round-obstacles-detour)")
-    bench.add_argument("--stall-after", type=stall_time, default=None, metavar="SECONDS|off",
-                       help="restart the planner after this long without progress and contact, or never (off) "
-                            "(ControllerSettings.stall_after_s; docs/controller.md#stalls; default: 4)")
-    bench.add_argument("--temperature", type=positive_float, default=None, metavar="TAU",
-                       help="MPPI's relative temperature τ: λ = τ·(median − min of the sampled costs) "
-                            "(MPPISettings.temperature; docs/controller.md; default: 0.02)")
-    bench.add_argument("--endgame-temperature", type=positive_or_off("a temperature"), default=None,
-                       metavar="TAU|off", help="τ within 4 cm of the goal, or the same τ everywhere (off) "
-                       "(ControllerSettings.endgame_temperature; docs/controller.md#the-endgame-temperature; "
-                       "default: 0.005)")
-    bench.add_argument("--obstacle-margin", type=positive_float, default=None, metavar="M",
-                       help="the planner keeps object and pusher this far (m) from obstacles (CostWeights."
-                            "obstacle_margin_m; docs/controller.md#the-margin; default: 0.01)")
-    bench.add_argument("--margin-cost", type=positive_or_off("a cost"), default=None, metavar="C|off",
-                       help="inside the 1-cm obstacle margin a state costs C times its depth into it, or the "
-                            "collision penalty (off) (CostWeights.C_margin; docs/controller.md#the-margin; "
-                            "default: 1e9)")
-    bench.add_argument("--contact-proposals", type=int, default=None, metavar="J",
-                       help="J of MPPI's exploring samples walk round the object to J contact points and push "
-                            "(ControllerSettings.contact_proposals; docs/controller.md#contact-proposals; "
-                            "default: 0, none)")
-    bench.add_argument("--mppi-update", choices=("sampled", "clipped"), default=None,
-                       help="MPPI's update: average the sampled inputs and clip the average (sampled), or "
-                            "average the clipped samples (clipped) (MPPISettings.update; "
-                            "docs/controller.md#the-update; default: sampled)")
+    add_planner_flags(bench)
     bench.add_argument("--out", default="out/bench", help="output folder; re-running resumes (default out/bench)")
     bench.add_argument("--quiet", action="store_true", help="no progress output")
     bench.set_defaults(func=_cmd_bench)

@@ -280,14 +280,15 @@ def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: 
 MIN_PLAN_MARGIN_M = 1e-4
 
 
-def plan_margin(x: State, scene: Scene, w: CostWeights) -> Scene:
-    """The scene for a plan that starts from state x: its margin is ``obstacle_margin_m``, or the
+def plan_margin(x: State, scene: Scene, w: CostWeights, extra: jnp.ndarray | float = 0.0) -> Scene:
+    """The scene for a plan that starts from state x: its margin is ``obstacle_margin_m`` + ``extra``
+    (m; the controller's allowance for the error of a state predicted from a late frame), or the
     state's own clearance where that is less (at least :data:`MIN_PLAN_MARGIN_M`), so that a plan
     from inside the margin is charged only for coming nearer than it already is. Unchanged without
     ``C_margin`` (the binary margin of before 2026-12-01) or without obstacles."""
     if w.C_margin is None or w.obstacle_margin_m <= 0 or scene.obstacles.shape[0] == 0:
         return scene
-    m = jnp.clip(clearance(x, scene), MIN_PLAN_MARGIN_M, w.obstacle_margin_m)
+    m = jnp.clip(clearance(x, scene), MIN_PLAN_MARGIN_M, w.obstacle_margin_m + extra)
     return dataclasses.replace(scene, margin=m.astype(scene.obstacles.dtype))
 
 

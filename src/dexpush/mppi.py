@@ -164,11 +164,17 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
                    dynamics: Dynamics, running_cost: Cost, terminal_cost: Cost,
                    settings: MPPISettings, horizon_scale: jnp.ndarray | float = 1.0,
                    temperature: jnp.ndarray | float | None = None,
-                   proposals: jnp.ndarray | None = None) -> MPPIResult:
+                   proposals: jnp.ndarray | None = None, rate_independent: bool = False) -> MPPIResult:
     """One MPPI update of the nominal sequence U (N_p, 2) from state x0. Pure and jit-able.
 
     ``x0`` is any pytree of arrays (one state); each leaf gets a leading sample axis K.
-    ``horizon_scale`` stretches the slots after the first (:func:`slot_durations`).
+    ``horizon_scale`` stretches the slots after the first (:func:`slot_durations`). With
+    ``rate_independent`` (dynamics positively homogeneous of degree 1 in the input, as
+    quasi-static pushing is: holding s·v for Δt moves the state as holding v for s·Δt) the
+    rollout holds s_k·v_k for the unstretched Δt_k instead of v_k for s_k·Δt_k: the same
+    states (and the effort is charged as for v_k over s_k·Δt_k), but the slots stay constants
+    of the program while s is traced (a traced slot per
+    lane made the batched simulator's step 2.2× slower, docs/performance.md).
     ``temperature``, if given, is this iteration's τ in place of ``settings.temperature``.
     ``proposals`` (J, N_p, 2), if given, take the place of the last J exploring samples, clipped as
     they are (10): sequences the caller knows to be worth a try (:mod:`dexpush.proposals`), weighted
@@ -198,17 +204,28 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
         raw = raw.at[K - J:].set(proposals.astype(dtype))
     V = jnp.clip(raw, -settings.v_clip, settings.v_clip)      # eq. (10)
 
-    def rollout_step(carry: tuple[Any, jnp.ndarray], inp: tuple[jnp.ndarray, jnp.ndarray]):
+    def rollout_step(carry: tuple[Any, jnp.ndarray], inp: tuple[jnp.ndarray, ...]):
         x, total = carry
-        v, dt = inp
-        x1 = dynamics(x, v, dt, params)
-        effort = settings.control_cost * dt * jnp.sum(v * v, -1)
+        if rate_independent:
+            v, dt, scale = inp
+            x1 = dynamics(x, v * scale, dt, params)
+            effort = settings.control_cost * (dt * scale) * jnp.sum(v * v, -1)
+        else:
+            v, dt = inp
+            x1 = dynamics(x, v, dt, params)
+            effort = settings.control_cost * dt * jnp.sum(v * v, -1)
         return (x1, total + running_cost(x1, context) + effort), None
 
     # the state may be any pytree (dexpush passes a tuple of scalars): give each leaf a K axis
     x = jax.tree.map(lambda leaf: jnp.broadcast_to(leaf, (K, *jnp.shape(leaf))), x0)
+    if rate_independent:       # constant slots, the stretch as a factor on the inputs
+        first = jnp.arange(N) == 0
+        scales = jnp.where(first, 1.0, jnp.asarray(horizon_scale, dtype)).astype(dtype)
+        inputs = (jnp.swapaxes(V, 0, 1), slot_durations(settings, 1.0, dtype), scales)
+    else:
+        inputs = (jnp.swapaxes(V, 0, 1), dts)
     # costs are summed in the scan's carry: no (K, N_p) cost array is kept
-    (xN, total), _ = jax.lax.scan(rollout_step, (x, jnp.zeros(K, dtype)), (jnp.swapaxes(V, 0, 1), dts))
+    (xN, total), _ = jax.lax.scan(rollout_step, (x, jnp.zeros(K, dtype)), inputs)
     S = total + terminal_cost(xN, context)
     S_min = jnp.min(S)
     tau = settings.temperature if temperature is None else temperature

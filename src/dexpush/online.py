@@ -4,7 +4,7 @@ Per object, the pushes are taken in file order as one session, as a robot that p
 same object again and again would see them: the UKF of :mod:`dexpush.estimator`, with the
 controller's settings, observes every 25 Hz sample; its window is emptied between pushes (the
 replay needs consecutive frames) and its state carries over to the next push; λ_pred follows
-the filter's mean within the rate limit, as :func:`dexpush.controller.estimate_step` does. As
+the filter's mean within the rate limit, as :func:`dexpush.policy.estimate_step` does. As
 in :func:`dexpush.dataset.validate`, a pusher observed within ``separation_mm`` of the contour
 is put onto it (the tip/Vicon calibration offset).
 

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["pose_error", "rotate", "rotation_matrix", "wrap_angle"]
+__all__ = ["footprint_shift", "pose_error", "rotate", "rotation_matrix", "wrap_angle"]
 
 
 def wrap_angle(angle: Any, xp: Any = np) -> Any:
@@ -44,3 +44,15 @@ def pose_error(object_pose: object, goal: object, xp: Any = np) -> tuple[Any, An
         q, g = q.astype(np.float64), g.astype(np.float64)
     pos = xp.sqrt(xp.sum((q[..., :2] - g[:2]) ** 2, axis=-1))
     return pos, xp.degrees(xp.abs(wrap_angle(q[..., 2] - g[2], xp)))
+
+
+def footprint_shift(vertices: np.ndarray, q0: object, q1: object) -> float:
+    """The farthest any point of a footprint moves (m) between poses q0 and q1 (x, y, θ):
+    max over its corners v (in {B}) of ‖R(θ₁)v + p₁ − R(θ₀)v − p₀‖ (the distance is convex in v,
+    so a corner attains it over each convex piece)."""
+    q0, q1 = np.asarray(q0, np.float64), np.asarray(q1, np.float64)
+
+    def world(q: np.ndarray) -> np.ndarray:
+        c, s = np.cos(q[2]), np.sin(q[2])
+        return vertices @ np.array([[c, s], [-s, c]]) + q[:2]
+    return float(np.max(np.hypot(*(world(q1) - world(q0)).T))) if len(vertices) else float(np.hypot(*(q1 - q0)[:2]))

@@ -1,6 +1,6 @@
 """Batched closed-loop episodes on the model plant: many trials, one jitted step.
 
-A simulated control period is the controller's pure :func:`dexpush.controller.policy_step`
+A simulated control period is the controller's pure :func:`dexpush.policy.policy_step`
 (UKF window update, one MPPI iteration) followed by the model plant (the C-GVMM with
 λ_true, ``substeps`` Euler steps, :func:`dexpush.model.integrate`). :func:`simulate`
 ``vmap``s that period over a fixed number of *lanes* and ``lax.scan``s it over a chunk
@@ -38,10 +38,10 @@ import numpy as np
 from tqdm import tqdm
 
 from dexpush.checks import check_params, checked_vector
-from dexpush.controller import ControllerSettings, ControllerState, policy_init, policy_step
 from dexpush.cost import Scene, collides_jit
 from dexpush.geometry import Shape
 from dexpush.model import LAMBDA_TRUE, Contour, integrate
+from dexpush.policy import ControllerSettings, ControllerState, policy_init, policy_step
 from dexpush.tasks import MAX_STEPS, Task, initial_conditions, is_success
 
 __all__ = ["ESTIMATOR_COUNTERS", "TrialResult", "TrialSpec", "simulate"]
