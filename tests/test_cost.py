@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import heapq
 
 import jax
@@ -207,6 +208,21 @@ def test_inside_the_margin_the_cost_grows_with_the_depth_and_a_touch_costs_c_pen
             CostWeights(C_margin=bad)
 
 
+@jax.jit
+def least_clearance(contour, scene: Scene, x: jnp.ndarray, sequence: jnp.ndarray,
+                    durations: jnp.ndarray) -> jnp.ndarray:
+    """The least obstacle clearance of the states a plan (N, 2) predicts from x on its slots (λ_true, μ_c 0.3),
+    compiled once (a rollout step by step from Python compiled each integrate anew: ~50 s a test)."""
+    from dexpush.cost import clearance
+    from dexpush.model import LAMBDA_TRUE, integrate
+
+    def slot(xs: jnp.ndarray, inp: tuple[jnp.ndarray, jnp.ndarray]):
+        xs = integrate(contour, xs, inp[0], inp[1], jnp.asarray(LAMBDA_TRUE, jnp.float32), jnp.float32(0.3), 4)
+        return xs, clearance(xs, scene)
+
+    return jnp.min(jax.lax.scan(slot, x, (sequence, durations))[1])
+
+
 def test_from_inside_the_margin_the_plan_never_comes_nearer() -> None:
     """The box 4 mm from the disc (inside the 1-cm margin), the pusher behind it: no state the
     graded margin's plan predicts comes nearer than 4 mm; every state of the binary margin's
@@ -215,8 +231,7 @@ def test_from_inside_the_margin_the_plan_never_comes_nearer() -> None:
     import functools
 
     from dexpush.controller import ControllerSettings, plan_step, policy_init
-    from dexpush.cost import clearance
-    from dexpush.model import LAMBDA_TRUE, Contour, integrate
+    from dexpush.model import LAMBDA_TRUE, Contour
 
     shape = Shape.rectangle()
     contour = Contour.of(shape)
@@ -230,11 +245,8 @@ def test_from_inside_the_margin_the_plan_never_comes_nearer() -> None:
         state = policy_init(LAMBDA_TRUE, settings, 3)
         for _ in range(10):
             state, _, result = step(state, x)
-        xs, gaps = x, []
-        for u, dt in zip(np.asarray(result.sequence), graded.mppi.step_durations(), strict=True):
-            xs = integrate(contour, xs, jnp.asarray(u), jnp.float32(dt), jnp.asarray(LAMBDA_TRUE), jnp.float32(0.3), 4)
-            gaps.append(float(clearance(xs, scene)))
-        return min(gaps)
+        return float(least_clearance(contour, scene, x, result.sequence,
+                                     jnp.asarray(graded.mppi.step_durations(), jnp.float32)))
 
     assert closest(graded) >= 0.004 - 1e-4            # measured: never deeper than it started (4.0 mm)
     assert closest(binary) < 0.0                      # measured: −21 mm, through the disc
@@ -297,6 +309,11 @@ def test_the_plan_margin_grows_by_the_allowance_and_never_beyond_the_start_clear
         assert float(plan_margin(x, scene, w, extra).margin) == pytest.approx(want, abs=1e-6)
 
 
+@functools.cache
+def _tee() -> Shape:
+    return Shape.tee()
+
+
 @hypothesis_settings(max_examples=40)
 @given(st.floats(-0.5, 0.5), st.floats(-0.5, 0.5), st.floats(-np.pi, np.pi), st.floats(-0.05, 0.05),
        st.floats(-0.05, 0.05), st.floats(-0.6, 0.6))
@@ -306,7 +323,7 @@ def test_footprint_shift_is_the_farthest_moving_point(x: float, y: float, th: fl
     outline point between the two poses (a corner attains it); a pure translation moves every point by it."""
     from dexpush.se2 import footprint_shift, rotate
 
-    shape = Shape.tee()
+    shape = _tee()
     a, b = shape.edges
     t = np.linspace(0.0, 1.0, 41)
     pts = (a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]).reshape(-1, 2)
@@ -329,7 +346,7 @@ def test_a_plan_from_a_predicted_state_keeps_the_grown_margin() -> None:
 
     from dexpush.controller import ControllerSettings, plan_step, policy_init
     from dexpush.cost import clearance
-    from dexpush.model import LAMBDA_TRUE, Contour, integrate
+    from dexpush.model import LAMBDA_TRUE, Contour
 
     shape = Shape.rectangle()
     contour = Contour.of(shape)
@@ -343,11 +360,8 @@ def test_a_plan_from_a_predicted_state_keeps_the_grown_margin() -> None:
         state = policy_init(LAMBDA_TRUE, settings, 3)
         for _ in range(10):
             state, _, result = step(state, x, predicted_m=jnp.float32(predicted_m))
-        xs, gaps = x, []
-        for u, dt in zip(np.asarray(result.sequence), settings.mppi.step_durations(), strict=True):
-            xs = integrate(contour, xs, jnp.asarray(u), jnp.float32(dt), jnp.asarray(LAMBDA_TRUE), jnp.float32(0.3), 4)
-            gaps.append(float(clearance(xs, scene)))
-        return min(gaps)
+        return float(least_clearance(contour, scene, x, result.sequence,
+                                     jnp.asarray(settings.mppi.step_durations(), jnp.float32)))
 
     assert closest(0.0) < start - 0.002        # measured: 16.0 → 9.1 mm, into the 1-cm margin's room
     assert closest(0.015) >= start - 1e-4      # measured: never nearer than 16.0 mm
