@@ -60,37 +60,30 @@ def positive_or_off(what: str):
 stall_time = positive_or_off("a time in seconds")
 
 
-def positive_float(text: str) -> float:
-    """A finite number > 0."""
+def _finite(text: str, low: float, inclusive: bool) -> float:
+    """A finite number above ``low`` (or equal to it, ``inclusive``); anything else an ``ArgumentTypeError``."""
     try:
         v = float(text)
     except ValueError:
         v = float("nan")
-    if not 0 < v < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
+    if not ((low <= v) if inclusive else (low < v)) or not v < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a number {'>=' if inclusive else '>'} {low:g}, got {text!r}")
     return v
+
+
+def positive_float(text: str) -> float:
+    """A finite number > 0."""
+    return _finite(text, 0.0, inclusive=False)
 
 
 def nonnegative_float(text: str) -> float:
     """A finite number >= 0."""
-    try:
-        v = float(text)
-    except ValueError:
-        v = float("nan")
-    if not 0 <= v < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a number >= 0, got {text!r}")
-    return v
+    return _finite(text, 0.0, inclusive=True)
 
 
 def at_least_one(text: str) -> float:
     """A finite number >= 1 (a scale that only stretches)."""
-    try:
-        v = float(text)
-    except ValueError:
-        v = float("nan")
-    if not 1 <= v < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a number >= 1, got {text!r}")
-    return v
+    return _finite(text, 1.0, inclusive=True)
 
 
 def positive_int(text: str) -> int:
