@@ -173,8 +173,8 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
     quasi-static pushing is: holding s·v for Δt moves the state as holding v for s·Δt) the
     rollout holds s_k·v_k for the unstretched Δt_k instead of v_k for s_k·Δt_k: the same
     states (and the effort is charged as for v_k over s_k·Δt_k), but the slots stay constants
-    of the program while s is traced (a traced slot per
-    lane made the batched simulator's step 2.2× slower, docs/performance.md).
+    of the program while s is traced (a traced slot per lane made the batched simulator's step
+    2.2× slower, docs/performance.md).
     ``temperature``, if given, is this iteration's τ in place of ``settings.temperature``.
     ``proposals`` (J, N_p, 2), if given, take the place of the last J exploring samples, clipped as
     they are (10): sequences the caller knows to be worth a try (:mod:`dexpush.proposals`), weighted
@@ -182,7 +182,6 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
     """
     K, N = settings.num_samples, settings.horizon
     dtype = U.dtype
-    dts = slot_durations(settings, horizon_scale, dtype)
     n_refine = round(settings.refine_fraction * K)
     # draw only what is used: white noise for the refining rows, knots for the exploring ones,
     # from two ranges of one key's stream
@@ -223,7 +222,7 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
         scales = jnp.where(first, 1.0, jnp.asarray(horizon_scale, dtype)).astype(dtype)
         inputs = (jnp.swapaxes(V, 0, 1), slot_durations(settings, 1.0, dtype), scales)
     else:
-        inputs = (jnp.swapaxes(V, 0, 1), dts)
+        inputs = (jnp.swapaxes(V, 0, 1), slot_durations(settings, horizon_scale, dtype))
     # costs are summed in the scan's carry: no (K, N_p) cost array is kept
     (xN, total), _ = jax.lax.scan(rollout_step, (x, jnp.zeros(K, dtype)), inputs)
     S = total + terminal_cost(xN, context)

@@ -51,8 +51,7 @@ def footprint_shift(vertices: np.ndarray, q0: object, q1: object) -> float:
     max over its corners v (in {B}) of ‖R(θ₁)v + p₁ − R(θ₀)v − p₀‖ (the distance is convex in v,
     so a corner attains it over each convex piece)."""
     q0, q1 = np.asarray(q0, np.float64), np.asarray(q1, np.float64)
-
-    def world(q: np.ndarray) -> np.ndarray:
-        c, s = np.cos(q[2]), np.sin(q[2])
-        return vertices @ np.array([[c, s], [-s, c]]) + q[:2]
-    return float(np.max(np.hypot(*(world(q1) - world(q0)).T))) if len(vertices) else float(np.hypot(*(q1 - q0)[:2]))
+    if not len(vertices):
+        return float(np.hypot(*(q1 - q0)[:2]))
+    moved = rotate(vertices, q1[2]) + q1[:2] - rotate(vertices, q0[2]) - q0[:2]
+    return float(np.max(np.hypot(moved[:, 0], moved[:, 1])))
