@@ -17,6 +17,7 @@ The loop body is one pure function, :func:`dexpush.policy.policy_step` (state, o
 benchmark and a robot run the very same controller. Its settings and pure parts are
 re-exported here, where a user looks for them.
 """
+
 from __future__ import annotations
 
 import warnings

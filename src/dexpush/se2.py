@@ -48,10 +48,8 @@ def pose_error(object_pose: object, goal: object, xp: Any = np) -> tuple[Any, An
 
 def footprint_shift(vertices: np.ndarray, q0: object, q1: object) -> float:
     """The farthest any point of a footprint moves (m) between poses q0 and q1 (x, y, θ):
-    max over its corners v (in {B}) of ‖R(θ₁)v + p₁ − R(θ₀)v − p₀‖ (the distance is convex in v,
-    so a corner attains it over each convex piece)."""
+    max over its corners v (n ≥ 1, in {B}) of ‖R(θ₁)v + p₁ − R(θ₀)v − p₀‖ (the distance is convex
+    in v, so a corner attains it over each convex piece)."""
     q0, q1 = np.asarray(q0, np.float64), np.asarray(q1, np.float64)
-    if not len(vertices):
-        return float(np.hypot(*(q1 - q0)[:2]))
     moved = rotate(vertices, q1[2]) + q1[:2] - rotate(vertices, q0[2]) - q0[:2]
     return float(np.max(np.hypot(moved[:, 0], moved[:, 1])))
