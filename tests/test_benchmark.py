@@ -82,7 +82,7 @@ def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path
                  "--max-steps", "2", "--lanes", "1", "--no-detour", "--stall-after", "off", "--temperature", "0.05",
                  "--endgame-temperature", "off", "--margin-cost", "off", "--mppi-update", "clipped",
                  "--contact-proposals", "4", "--prediction-margin", "0.25", "--stall-horizon", "1.5",
-                 "--no-figures", "--quiet",
+                 "--samples", "64", "--no-figures", "--quiet",
                  "--out", str(tmp_path)]) == 0
     controller = json.loads((tmp_path / "settings.json").read_text())["settings"]["controller"]
     assert controller["weights"]["detour"] is False and controller["stall_after_s"] is None
@@ -90,12 +90,13 @@ def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path
     assert controller["weights"]["C_margin"] is None
     assert controller["mppi"]["update"] == "clipped" and controller["contact_proposals"] == 4
     assert controller["prediction_margin_gain"] == 0.25 and controller["stall_horizon_scale"] == 1.5
+    assert controller["mppi"]["num_samples"] == 64
     command = ("--no-detour --stall-after off --temperature 0.05 --endgame-temperature off --margin-cost off "
-               "--contact-proposals 4 --mppi-update clipped --prediction-margin 0.25 --stall-horizon 1.5")
+               "--contact-proposals 4 --mppi-update clipped --prediction-margin 0.25 --stall-horizon 1.5 --samples 64")
     assert command in (tmp_path / "benchmark.md").read_text()
     for bad in (["--stall-after", "0"], ["--temperature", "0"], ["--temperature", "nan"],
                 ["--endgame-temperature", "-1"], ["--margin-cost", "0"], ["--mppi-update", "mean"],
-                ["--prediction-margin", "-0.5"], ["--stall-horizon", "0.5"]):
+                ["--prediction-margin", "-0.5"], ["--stall-horizon", "0.5"], ["--samples", "0"]):
         with pytest.raises(SystemExit):
             main(["bench", *bad, "--out", str(tmp_path)])
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import replace
 
-from dexpush.arguments import at_least_one, nonnegative_float, positive_float, positive_or_off, stall_time
+from dexpush.arguments import at_least_one, nonnegative_float, positive_float, positive_int, positive_or_off, stall_time
 from dexpush.controller import ControllerSettings
 
 __all__ = ["add_planner_flags", "planner_settings"]
@@ -50,6 +50,9 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
                        help="MPPI's update: average the sampled inputs and clip the average (sampled), or "
                             "average the clipped samples (clipped) (MPPISettings.update; "
                             "docs/controller.md#the-update; default: sampled)")
+    parser.add_argument("--samples", type=positive_int, default=None, metavar="K",
+                       help="MPPI's sampled input sequences per iteration (MPPISettings.num_samples; "
+                            "docs/performance.md#samples-against-success-a-pareto-table; default: 1024)")
     parser.add_argument("--prediction-margin", type=nonnegative_float, default=None, metavar="GAIN",
                        help="the obstacle margin grows by GAIN times how far the object was predicted on from "
                             "the newest camera frame, up to 2 cm more; 0 keeps it fixed "
@@ -69,7 +72,7 @@ def planner_settings(args: argparse.Namespace) -> tuple[ControllerSettings | Non
              "--endgame-temperature": args.endgame_temperature, "--margin-cost": args.margin_cost,
              "--obstacle-margin": args.obstacle_margin, "--contact-proposals": args.contact_proposals,
              "--mppi-update": args.mppi_update, "--prediction-margin": args.prediction_margin,
-             "--stall-horizon": args.stall_horizon}
+             "--stall-horizon": args.stall_horizon, "--samples": args.samples}
     settings = None
     if any(v is not None for v in flags.values()):
         default = ControllerSettings()
@@ -79,7 +82,8 @@ def planner_settings(args: argparse.Namespace) -> tuple[ControllerSettings | Non
                                              else args.obstacle_margin))
         mppi = replace(default.mppi,
                        temperature=default.mppi.temperature if args.temperature is None else args.temperature,
-                       update=default.mppi.update if args.mppi_update is None else args.mppi_update)
+                       update=default.mppi.update if args.mppi_update is None else args.mppi_update,
+                       num_samples=default.mppi.num_samples if args.samples is None else args.samples)
         settings = replace(default, weights=weights, mppi=mppi,
                            stall_after_s=_or_off(args.stall_after, default.stall_after_s),
                            endgame_temperature=_or_off(args.endgame_temperature, default.endgame_temperature),
