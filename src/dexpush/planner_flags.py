@@ -60,9 +60,14 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
                             "docs/controller.md#the-margin-grows-with-the-prediction; default: 0.5)")
 
 
+def _given(value: object, default: object) -> object:
+    """A flag's value as a setting: the default when not given."""
+    return default if value is None else value
+
+
 def _or_off(value: float | str | None, default: float | None) -> float | None:
     """A ``positive_or_off`` flag's value as a setting: the default when not given, None for off."""
-    return default if value is None else None if value == "off" else value
+    return None if value == "off" else _given(value, default)
 
 
 def planner_settings(args: argparse.Namespace) -> tuple[ControllerSettings | None, str]:
@@ -76,23 +81,19 @@ def planner_settings(args: argparse.Namespace) -> tuple[ControllerSettings | Non
     settings = None
     if any(v is not None for v in flags.values()):
         default = ControllerSettings()
-        weights = replace(default.weights, detour=default.weights.detour if args.detour is None else args.detour,
+        weights = replace(default.weights, detour=_given(args.detour, default.weights.detour),
                           C_margin=_or_off(args.margin_cost, default.weights.C_margin),
-                          obstacle_margin_m=(default.weights.obstacle_margin_m if args.obstacle_margin is None
-                                             else args.obstacle_margin))
+                          obstacle_margin_m=_given(args.obstacle_margin, default.weights.obstacle_margin_m))
         mppi = replace(default.mppi,
-                       temperature=default.mppi.temperature if args.temperature is None else args.temperature,
-                       update=default.mppi.update if args.mppi_update is None else args.mppi_update,
-                       num_samples=default.mppi.num_samples if args.samples is None else args.samples)
+                       temperature=_given(args.temperature, default.mppi.temperature),
+                       update=_given(args.mppi_update, default.mppi.update),
+                       num_samples=_given(args.samples, default.mppi.num_samples))
         settings = replace(default, weights=weights, mppi=mppi,
                            stall_after_s=_or_off(args.stall_after, default.stall_after_s),
                            endgame_temperature=_or_off(args.endgame_temperature, default.endgame_temperature),
-                           contact_proposals=(default.contact_proposals if args.contact_proposals is None
-                                              else args.contact_proposals),
-                           prediction_margin_gain=(default.prediction_margin_gain if args.prediction_margin is None
-                                                   else args.prediction_margin),
-                           stall_horizon_scale=(default.stall_horizon_scale if args.stall_horizon is None
-                                                else args.stall_horizon))
+                           contact_proposals=_given(args.contact_proposals, default.contact_proposals),
+                           prediction_margin_gain=_given(args.prediction_margin, default.prediction_margin_gain),
+                           stall_horizon_scale=_given(args.stall_horizon, default.stall_horizon_scale))
     options = "".join((" --detour" if v else " --no-detour") if k == "--detour" else
                       f" {k} {v if isinstance(v, str) else f'{v:g}'}" for k, v in flags.items() if v is not None)
     return settings, options
