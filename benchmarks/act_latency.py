@@ -19,8 +19,8 @@ import time
 import numpy as np
 
 import dexpush
-from dexpush.interfaces import Observation
-from dexpush.plants import ModelPlant
+from dexpush.common.interfaces import Observation
+from dexpush.world.plants import ModelPlant
 
 
 def main() -> None:
@@ -32,7 +32,7 @@ def main() -> None:
                     help="use JAX's persistent compilation cache in DIR (run twice: the second reset loads)")
     args = ap.parse_args()
     if args.cache:
-        from dexpush import compile_cache
+        from dexpush.common import compile_cache
 
         compile_cache.enable(args.cache)
     rng = np.random.default_rng(args.seed)

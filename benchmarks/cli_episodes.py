@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dexpush.files import atomic_path, write_json_atomic
+from dexpush.common.files import atomic_path, write_json_atomic
 
 
 def seeds(text: str) -> list[int]:

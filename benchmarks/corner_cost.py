@@ -2,7 +2,7 @@
 
     python benchmarks/corner_cost.py [--samples 1024] [--repeats 200]
 
-The same controller step (``plan_step``: sampling, rollouts through ``dexpush.model.step``,
+The same controller step (``plan_step``: sampling, rollouts through ``dexpush.model.cgvmm.step``,
 cost, update and warm-start shift) for Task I on the T, once with the T's two concave corners
 in the contour (what dexpush uses) and once with them removed (the single-contact model of
 0.3.0). Issue 14 allows at most 20 % more time per iteration. Run on an idle machine; the two
@@ -22,10 +22,10 @@ import jax
 import numpy as np
 
 from dexpush import Shape
-from dexpush.controller import ControllerSettings, plan_step, policy_init
-from dexpush.cost import Scene
-from dexpush.model import LAMBDA_TRUE, Contour
-from dexpush.mppi import MPPISettings
+from dexpush.control.controller import ControllerSettings, plan_step, policy_init
+from dexpush.control.mppi import MPPISettings
+from dexpush.model.cgvmm import LAMBDA_TRUE, Contour
+from dexpush.problem.cost import Scene
 
 
 def timing_args(doc: str | None) -> argparse.Namespace:

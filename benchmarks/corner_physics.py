@@ -27,9 +27,9 @@ import json
 import numpy as np
 
 from dexpush import Shape
-from dexpush.model import Contour
-from dexpush.plants import ModelPlant, PhysicsPlant, PhysicsSettings, _support_points
-from dexpush.se2 import rotate, wrap_angle
+from dexpush.common.se2 import rotate, wrap_angle
+from dexpush.model.cgvmm import Contour
+from dexpush.world.plants import ModelPlant, PhysicsPlant, PhysicsSettings, _support_points
 
 
 def physics_lambda(shape: Shape, settings: PhysicsSettings) -> np.ndarray:

@@ -5,8 +5,8 @@
 The same controller step (``plan_step``) for Task III on the T, with the paper's straight
 goal distance of eq. (9) and no stall watch (the defaults), and with the two options on
 (``CostWeights(detour=True)``, ``stall_after_s=4``): the goal distance measured round the
-obstacle (``dexpush.cost.detour_length_sq``) in every rollout state, and the stall watch
-(``dexpush.policy.watch_progress``) once per iteration. Run on an idle machine; the
+obstacle (``dexpush.problem.cost.detour_length_sq``) in every rollout state, and the stall watch
+(``dexpush.control.policy.watch_progress``) once per iteration. Run on an idle machine; the
 variants are timed in alternating rounds so that drift in machine load hits both alike.
 """
 
@@ -19,11 +19,11 @@ from pathlib import Path
 import numpy as np
 
 from dexpush import Shape
-from dexpush.controller import ControllerSettings
-from dexpush.cost import CostWeights, Scene
-from dexpush.model import Contour
-from dexpush.mppi import MPPISettings
-from dexpush.tasks import get_task
+from dexpush.control.controller import ControllerSettings
+from dexpush.control.mppi import MPPISettings
+from dexpush.experiments.scenarios import get_task
+from dexpush.model.cgvmm import Contour
+from dexpush.problem.cost import CostWeights, Scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from corner_cost import print_ms_table, time_plan_steps, timing_args  # a sibling script

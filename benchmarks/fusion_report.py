@@ -2,8 +2,8 @@
 
     python benchmarks/fusion_report.py [--shape rect|tee] [--samples 1024]
 
-Compiles ``dexpush.model.step`` on a batch of states as the MPPI rollout calls it (state as a
-tuple of arrays, traced Δt), with and without the seams of ``dexpush.fastmath.materialize``
+Compiles ``dexpush.model.cgvmm.step`` on a batch of states as the MPPI rollout calls it (state as a
+tuple of arrays, traced Δt), with and without the seams of ``dexpush.common.fastmath.materialize``
 (without: ``traced_one`` is made to return a Python 1, so no value is stored on purpose), and
 prints for each: the number of fused loops XLA runs per step, the multiplications in the
 program as written and in the compiled loops (their ratio is how much XLA recomputes), and
@@ -23,9 +23,10 @@ import jax.numpy as jnp
 import numpy as np
 
 import dexpush  # noqa: F401  (XLA settings first)
-from dexpush import fastmath, model
-from dexpush.model import LAMBDA_TRUE, Contour
-from dexpush.registry import make_shape
+from dexpush.common import fastmath
+from dexpush.experiments.registry import make_shape
+from dexpush.model import cgvmm as model
+from dexpush.model.cgvmm import LAMBDA_TRUE, Contour
 
 
 def count(hlo: str, op: str) -> int:

@@ -23,12 +23,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.controller import ControllerSettings, policy_init, policy_step
-from dexpush.cost import Scene
-from dexpush.model import Contour
-from dexpush.mppi import MPPISettings
-from dexpush.plants import ModelPlant
-from dexpush.registry import make_shape
+from dexpush.control.controller import ControllerSettings, policy_init, policy_step
+from dexpush.control.mppi import MPPISettings
+from dexpush.experiments.registry import make_shape
+from dexpush.model.cgvmm import Contour
+from dexpush.problem.cost import Scene
+from dexpush.world.plants import ModelPlant
 
 
 def clean_sequences(shape_name: str, lanes: int, steps: int, seed: int) -> np.ndarray:

@@ -3,14 +3,14 @@
     python benchmarks/mppi_speed.py            # full table
     python benchmarks/mppi_speed.py --quick    # fewer repeats, K ∈ {256, 1024}
     python benchmarks/mppi_speed.py --ops      # also time XLA's transcendental ops
-    python benchmarks/mppi_speed.py --noise    # also time MPPI's noise: jax.random against dexpush.noise
+    python benchmarks/mppi_speed.py --noise    # also time MPPI's noise: jax.random against dexpush.control.noise
 
 Problem: Task I, ``rect`` (and the T, whose iterations add the corner model), λ_true,
 N_p = 25, pusher behind the object. One "iteration" is
 sampling, rollout of every sample through the C-GVMM, cost, weighting and the update
 (dexpush: ``MPPI.optimize`` + ``shift``; pytorch-mppi: ``MPPI.command``). Medians of
 ``--repeats`` timed calls after warm-up. The torch port of the C-GVMM step below mirrors
-``dexpush.model`` line by line (same tables, same penetration fix) and lives here only.
+``dexpush.model.cgvmm`` line by line (same tables, same penetration fix) and lives here only.
 Times are the best of 5 blocks' mean per call: on the shared 2-core VMs we measure on, other
 tenants moved single-call medians by ±30 % between runs, the best block by a few per cent.
 The last line printed is JSON with ``ms_per_iteration_K1024`` and ``speedup_vs_pytorch_mppi``.
@@ -30,10 +30,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush import Shape
-from dexpush.controller import ControllerSettings, plan_step, policy_init
-from dexpush.cost import Scene
-from dexpush.model import LAMBDA_TRUE, Contour
-from dexpush.mppi import MPPISettings
+from dexpush.control.controller import ControllerSettings, plan_step, policy_init
+from dexpush.control.mppi import MPPISettings
+from dexpush.model.cgvmm import LAMBDA_TRUE, Contour
+from dexpush.problem.cost import Scene
 
 TARGET_MS = 1.0   # SPEC §7: median ≤ 1.0 ms at K = 1024 on 2 cores
 
@@ -150,7 +150,7 @@ def torch_problem(shape: Shape, settings: MPPISettings):
         F = (fn * Wn[0] + ft * Wt[0], fn * Wn[1] + ft * Wt[1], fn * Wn[2] + ft * Wt[2])
         Vx, Vy, Vw = mul(F)
         xn = x + dt * torch.stack([cth * Vx - sth * Vy, sth * Vx + cth * Vy, Vw, u[:, 0], u[:, 1]], -1)
-        # penetration fix, as dexpush.model.resolve_penetration
+        # penetration fix, as dexpush.model.cgvmm.resolve_penetration
         cth, sth, px, py = to_body(xn)
         dist, R, _, _, _, nx, ny, _, _ = frame(px, py)
         radial = torch.where(stick | ccw | cw, R - dist, torch.clamp(R - dist, min=0.0))
@@ -190,20 +190,20 @@ def pytorch_mppi_iteration(K: int, repeats: int) -> float:
 
 
 def time_noise(K: int = 1024, N: int = 25) -> dict[str, float]:
-    """ms for one iteration's noise (K/2 × N × 2 white draws, K/2 × 3 × 2 knots): jax.random vs dexpush.noise."""
-    from dexpush import noise
+    """ms for one iteration's noise (K/2 × N × 2 white draws, K/2 × 3 × 2 knots): jax.random vs our noise."""
+    from dexpush.control import noise
 
     key = jax.random.PRNGKey(0)
     shapes = [(K // 2, N, 2), (K // 2, 3, 2)]
     ours = jax.jit(lambda k: [noise.normal(k, s, offset=i * 10**6) for i, s in enumerate(shapes)])
     theirs = jax.jit(lambda k: [jax.random.normal(kk, s) for kk, s in zip(jax.random.split(k), shapes)])
     return {name: round(best_ms(lambda f=f: jax.block_until_ready(f(key)), 100), 3)
-            for name, f in (("jax.random.normal (threefry)", theirs), ("dexpush.noise.normal", ours))}
+            for name, f in (("jax.random.normal (threefry)", theirs), ("dexpush.control.noise.normal", ours))}
 
 
 def time_ops(n: int = 1 << 20) -> dict[str, float]:
-    """ns per element of XLA's transcendental ops on this CPU (why dexpush.fastmath exists)."""
-    from dexpush import fastmath
+    """ns per element of XLA's transcendental ops on this CPU (why dexpush.common.fastmath exists)."""
+    from dexpush.common import fastmath
 
     x = jax.random.uniform(jax.random.PRNGKey(0), (n,), minval=-3, maxval=3)
     y = x[::-1]
@@ -228,7 +228,7 @@ def main() -> None:
     repeats = args.repeats or (40 if args.quick else 100)
     sizes = [256, 1024] if args.quick else [256, 1024, 4096, 16384]
     try:
-        from dexpush.xla_options import active as one_thread
+        from dexpush.common.xla_options import active as one_thread
     except ImportError:   # dexpush before 0.4 (to time an older checkout with this script)
         def one_thread() -> str:
             return "n/a"

@@ -6,7 +6,7 @@
 One Task III trial (MPPI + UKF, unknown λ, the realistic camera) through
 ``PushingController.act``. After each command it prints, for the last ``--steps`` control steps:
 
-* ``true``: the clearance (mm, :func:`dexpush.cost.clearance`) of the plant's true state;
+* ``true``: the clearance (mm, :func:`dexpush.problem.cost.clearance`) of the plant's true state;
 * ``seen``: the clearance of the state the controller planned from (``planning_state``: the
   newest frame predicted to the present through the model);
 * ``plan``: the clearance the new nominal sequence predicts after 1, 2 and 3 slots, and the least
@@ -27,13 +27,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.controller import ControllerSettings
-from dexpush.cost import CostWeights, Scene, clearance
-from dexpush.model import Contour, integrate
-from dexpush.registry import PARAMS, make_controller, make_plant, make_shape, world_sensor
-from dexpush.runner import run_loop
-from dexpush.sensing import SensorSettings
-from dexpush.tasks import get_task, initial_conditions
+from dexpush.control.controller import ControllerSettings
+from dexpush.experiments.registry import PARAMS, make_controller, make_plant, make_shape, world_sensor
+from dexpush.experiments.runner import run_loop
+from dexpush.experiments.scenarios import get_task, initial_conditions
+from dexpush.model.cgvmm import Contour, integrate
+from dexpush.problem.cost import CostWeights, Scene, clearance
+from dexpush.world.sensing import SensorSettings
 
 
 def main() -> None:

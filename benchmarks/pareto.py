@@ -6,7 +6,7 @@ For each K: the time of one MPPI iteration (rect and T, Task I scene; ``mppi_spe
 timing, best of 5 blocks) and, when pytorch-mppi is installed (``pip install -e ".[bench]"``),
 pytorch-mppi driving the same dynamics and cost; then the success rate of MPPI+UKF with
 unknown λ on the model plant, Tasks I and III with the T, seeds 0 … trials − 1
-(``dexpush.benchmark.run_benchmark``, one resumable folder per K under ``--out``). All timing
+(``dexpush.experiments.benchmark.run_benchmark``, one resumable folder per K under ``--out``). All timing
 runs first, before any trial, so the trials' processes do not disturb it. On a GPU machine
 run it with ``JAX_PLATFORMS=cuda``. The last line printed is JSON.
 """
@@ -23,9 +23,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import jax
 
-from dexpush.benchmark import run_benchmark
-from dexpush.controller import ControllerSettings
-from dexpush.mppi import MPPISettings
+from dexpush.control.controller import ControllerSettings
+from dexpush.control.mppi import MPPISettings
+from dexpush.experiments.benchmark import run_benchmark
 from mppi_speed import dexpush_iteration, pytorch_mppi_iteration
 
 

@@ -16,8 +16,8 @@ import time
 
 import numpy as np
 
-from dexpush.benchmark import SHAPES, make_shape
-from dexpush.plants import PhysicsPlant
+from dexpush.experiments.benchmark import SHAPES, make_shape
+from dexpush.world.plants import PhysicsPlant
 
 
 def main() -> None:

@@ -10,7 +10,7 @@ compares
 * ``shift``: how far the footprint's farthest point moved in that prediction
   (``PushingController.prediction_shift_m``), with
 * ``error``: how far the footprint's farthest point is from where it truly is
-  (:func:`dexpush.se2.footprint_shift` between the planning state and the plant's
+  (:func:`dexpush.common.se2.footprint_shift` between the planning state and the plant's
   state), which includes the camera's noise.
 
 It prints the error's percentiles per band of shift, and how often the error exceeds a margin
@@ -27,13 +27,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from dexpush.arguments import seed_list
-from dexpush.controller import ControllerSettings
-from dexpush.registry import PARAMS, make_controller, make_plant, make_shape, world_sensor
-from dexpush.runner import run_loop
-from dexpush.se2 import footprint_shift
-from dexpush.sensing import SensorSettings
-from dexpush.tasks import get_task, initial_conditions
+from dexpush.cli.arguments import seed_list
+from dexpush.common.se2 import footprint_shift
+from dexpush.control.controller import ControllerSettings
+from dexpush.experiments.registry import PARAMS, make_controller, make_plant, make_shape, world_sensor
+from dexpush.experiments.runner import run_loop
+from dexpush.experiments.scenarios import get_task, initial_conditions
+from dexpush.world.sensing import SensorSettings
 
 BANDS_MM = (0.0, 0.5, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0, 40.0)
 

@@ -2,7 +2,7 @@
 
     python benchmarks/step_breakdown.py [--lanes 120] [--samples 1024] [--repeats 20]
 
-The batched simulator (dexpush.simulate) advances ``lanes`` trials per compiled step: the
+The batched simulator (dexpush.experiments.simulate) advances ``lanes`` trials per compiled step: the
 controller's ``policy_step`` (UKF window update, then one MPPI iteration) and the model
 plant (10 Euler substeps). This times, vmapped over the lanes and jitted, each piece alone
 and the whole step, with the UKF on and off, plus a 25-step scanned chunk as the benchmark
@@ -26,13 +26,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.controller import ControllerSettings, estimate_step, plan_step, policy_init, policy_step
-from dexpush.cost import Scene
-from dexpush.estimator import estimator_observe, rate_limited
-from dexpush.model import LAMBDA_TRUE, Contour, integrate
-from dexpush.mppi import MPPISettings
-from dexpush.registry import make_shape
-from dexpush.tasks import get_task, initial_conditions
+from dexpush.control.controller import ControllerSettings, estimate_step, plan_step, policy_init, policy_step
+from dexpush.control.estimator import estimator_observe, rate_limited
+from dexpush.control.mppi import MPPISettings
+from dexpush.experiments.registry import make_shape
+from dexpush.experiments.scenarios import get_task, initial_conditions
+from dexpush.model.cgvmm import LAMBDA_TRUE, Contour, integrate
+from dexpush.problem.cost import Scene
 
 
 def median_ms(fn, repeats: int) -> float:

@@ -24,14 +24,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from dexpush.controller import ControllerSettings, PushingController
-from dexpush.estimator import UKFSettings
-from dexpush.interfaces import Observation
-from dexpush.model import LAMBDA_TRUE
-from dexpush.registry import PARAMS, make_plant, make_shape
-from dexpush.runner import run_loop
-from dexpush.sensing import SensorSettings
-from dexpush.tasks import get_task, initial_conditions
+from dexpush.common.interfaces import Observation
+from dexpush.control.controller import ControllerSettings, PushingController
+from dexpush.control.estimator import UKFSettings
+from dexpush.experiments.registry import PARAMS, make_plant, make_shape
+from dexpush.experiments.runner import run_loop
+from dexpush.experiments.scenarios import get_task, initial_conditions
+from dexpush.model.cgvmm import LAMBDA_TRUE
+from dexpush.world.sensing import SensorSettings
 
 
 class Recording:

@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from dexpush import LAMBDA_TRUE, Shape, contact_solution
-from dexpush.model import MODE_NAMES, Contour
+from dexpush.model.cgvmm import MODE_NAMES, Contour
 from dexpush.viz import MODE_COLORS, plot_shapes, save_figure_atomic
 
 

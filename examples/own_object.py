@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 
 import dexpush
-from dexpush.model import MODE_NAMES
-from dexpush.plants import ModelPlant
-from dexpush.tasks import Task
+from dexpush.experiments.scenarios import Task
+from dexpush.model.cgvmm import MODE_NAMES
 from dexpush.viz import plot_episode
+from dexpush.world.plants import ModelPlant
 
 
 def main() -> None:

@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 
 import dexpush
-from dexpush.plants import ModelPlant, PhysicsPlant
-from dexpush.sensing import Camera
-from dexpush.tasks import is_success
+from dexpush.experiments.scenarios import is_success
+from dexpush.world.plants import ModelPlant, PhysicsPlant
+from dexpush.world.sensing import Camera
 
 RATE_HZ = 15.0                     # the camera's rate: one command per frame period
 

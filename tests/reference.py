@@ -2,7 +2,7 @@
 
 Written from the paper's matrices (eq. 1, 5, 7, 8) with numpy linear algebra, one
 sample at a time, and closed-form contours (no tables): nothing here is shared with
-``dexpush.model`` or ``dexpush.geometry``.
+``dexpush.model.cgvmm`` or ``dexpush.model.shape``.
 """
 
 from __future__ import annotations

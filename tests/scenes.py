@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dexpush.se2 import rotate
+from dexpush.common.se2 import rotate
 
 
 def scenes_with_pusher_at(rng: np.random.Generator, r: np.ndarray, beta: tuple[float, float] = (5, 50),

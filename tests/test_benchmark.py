@@ -13,14 +13,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dexpush.benchmark import run_benchmark
 from dexpush.cli import main
-from dexpush.controller import ControllerSettings
-from dexpush.cost import CostWeights
-from dexpush.mppi import MPPISettings
-from dexpush.records import summarize
-from dexpush.sensing import SensorSettings
-from dexpush.tables import write_tables
+from dexpush.control.controller import ControllerSettings
+from dexpush.control.mppi import MPPISettings
+from dexpush.experiments.benchmark import run_benchmark
+from dexpush.experiments.records import summarize
+from dexpush.experiments.tables import write_tables
+from dexpush.problem.cost import CostWeights
+from dexpush.world.sensing import SensorSettings
 
 
 def test_benchmark_resumes_without_rerunning_recorded_trials(tmp_path: Path) -> None:
@@ -102,7 +102,7 @@ def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path
 
 
 def test_an_interrupted_run_keeps_every_finished_trials_trajectory(tmp_path: Path, monkeypatch) -> None:
-    import dexpush.benchmark as bench
+    import dexpush.experiments.benchmark as bench
 
     real = bench.simulate
 
@@ -208,7 +208,7 @@ def test_pool_workers_end_when_the_benchmark_process_is_killed(tmp_path) -> None
     script.write_text(
         "import multiprocessing, os, sys, time\n"
         "from concurrent.futures import ProcessPoolExecutor\n"
-        "from dexpush.benchmark import exit_with_parent\n"
+        "from dexpush.experiments.benchmark import exit_with_parent\n"
         "if __name__ == '__main__':\n"
         "    ex = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context('spawn'),\n"
         "                             initializer=exit_with_parent, initargs=(os.getpid(), 0.1))\n"
@@ -235,12 +235,12 @@ def test_records_label_a_trajectory_in_blocks_as_they_would_unpadded() -> None:
     touches it records are those of the trajectory itself."""
     import jax.numpy as jnp
 
-    from dexpush.cost import Scene, collides
-    from dexpush.model import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
-    from dexpush.records import LABEL_BLOCK, make_episode
-    from dexpush.registry import make_shape
-    from dexpush.simulate import TrialResult, TrialSpec
-    from dexpush.tasks import get_task
+    from dexpush.experiments.records import LABEL_BLOCK, make_episode
+    from dexpush.experiments.registry import make_shape
+    from dexpush.experiments.scenarios import get_task
+    from dexpush.experiments.simulate import TrialResult, TrialSpec
+    from dexpush.model.cgvmm import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
+    from dexpush.problem.cost import Scene, collides
 
     task, shape = get_task("III"), make_shape("rect")
     rng = np.random.default_rng(3)
@@ -260,8 +260,8 @@ def test_records_label_a_trajectory_in_blocks_as_they_would_unpadded() -> None:
     assert ep.record.contact_switches == int(np.sum(in_contact[1:] != in_contact[:-1])) > 0
     assert ep.record.collisions == int(hits.sum()) > 0
     # the record's clearance is the trajectory's smallest gap: below zero, since it touches
-    from dexpush.cost import clearance
-    from dexpush.records import summarize
+    from dexpush.experiments.records import summarize
+    from dexpush.problem.cost import clearance
     gaps = np.asarray(clearance(jnp.asarray(X[1:], jnp.float32), Scene.make(shape, task.goal, task.obstacles)))
     assert ep.record.clearance_m == pytest.approx(float(gaps.min()), abs=1e-5) and ep.record.clearance_m < 0
     clear = make_episode(task, "rect", shape, "known", "mppi", TrialResult(TrialSpec(1), False, X[:40], U[:39],
@@ -275,7 +275,7 @@ def test_records_label_a_trajectory_in_blocks_as_they_would_unpadded() -> None:
 
 
 def test_longest_groups_run_first() -> None:
-    from dexpush.benchmark import _expected_cost
+    from dexpush.experiments.benchmark import _expected_cost
 
     groups = [(t, s) for t in ("I", "II", "III") for s in ("rect", "tee")]
     ordered = sorted(groups, key=_expected_cost, reverse=True)

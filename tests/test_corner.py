@@ -1,4 +1,4 @@
-"""Two contacts at a concave corner (dexpush.corner): an independent float64 reference and the
+"""Two contacts at a concave corner (dexpush.model.corner): an independent float64 reference and the
 physical properties (no pulling, rigid jammed push, scene invariance, reduction to one contact)."""
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dexpush import Shape, contact_solution
-from dexpush.corner import CORNER_REACH, CORNER_TOL
-from dexpush.model import CORNER, FREE, SLIDE_CCW, SLIDE_CW, STICK, Contour, integrate
-from dexpush.polygons import concave_corners, convex_pieces
-from dexpush.se2 import rotate
+from dexpush.common.se2 import rotate
+from dexpush.model.cgvmm import CORNER, FREE, SLIDE_CCW, SLIDE_CW, STICK, Contour, integrate
+from dexpush.model.corner import CORNER_REACH, CORNER_TOL
+from dexpush.model.polygons import concave_corners, convex_pieces
 from scenes import scenes_with_pusher_at
 
 
@@ -289,7 +289,7 @@ def test_corner_only_where_both_faces_touch() -> None:
     ([[0, 0], [0.2, 0], [0.2, 0.1], [0.15, 0.1], [0.15, 0.04], [0.05, 0.04], [0.05, 0.1], [0, 0.1]], 3),  # U
 ])
 def test_convex_pieces_tile_the_polygon(corners: list, pieces: int) -> None:
-    from dexpush.polygons import as_polygon, inside_polygon, is_convex
+    from dexpush.model.polygons import as_polygon, inside_polygon, is_convex
 
     poly = as_polygon(corners)
     parts = convex_pieces(poly)

@@ -1,4 +1,4 @@
-"""dexpush.fastmath in float32 against float64 numpy (the reference tests run in float64, where it
+"""dexpush.common.fastmath in float32 against float64 numpy (the reference tests run in float64, where it
 falls back to the exact functions, so its approximation is only ever exercised here)."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush import fastmath
+from dexpush.common import fastmath
 
 _atan2 = jax.jit(fastmath.atan2)
 _sincos = jax.jit(fastmath.sincos)

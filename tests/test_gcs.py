@@ -14,14 +14,14 @@ import pytest
 
 pytest.importorskip("pydrake")
 
-from dexpush.benchmark import run_benchmark
+from dexpush.common.se2 import pose_error
+from dexpush.experiments.benchmark import run_benchmark
+from dexpush.experiments.registry import PARAMS, make_shape
+from dexpush.experiments.scenarios import get_task, initial_conditions
+from dexpush.experiments.tables import write_tables
 from dexpush.gcs import GCSSettings, GCSTracker, PlanningError, contact_faces, plan_push
-from dexpush.geometry import Shape, distance_to_polygons
-from dexpush.model import Contour, replay
-from dexpush.registry import PARAMS, make_shape
-from dexpush.se2 import pose_error
-from dexpush.tables import write_tables
-from dexpush.tasks import get_task, initial_conditions
+from dexpush.model.cgvmm import Contour, replay
+from dexpush.model.shape import Shape, distance_to_polygons
 
 _PLANS: dict = {}
 

@@ -18,7 +18,7 @@ from dexpush.gcs.graph import build_graph
 from dexpush.gcs.problem import make_problem
 from dexpush.gcs.rounding import _exact_step
 from dexpush.gcs.vertices import _Lifted, contact_vertex
-from dexpush.geometry import Shape, distance_to_polygons
+from dexpush.model.shape import Shape, distance_to_polygons
 
 LAMBDA = np.array([25.0, -0.01, 0.02])          # PARAMS["known"] of the benchmark
 START, PUSHER, GOAL = np.array([0.0, 0.0, 0.0]), np.array([-0.13, 0.0]), np.array([0.15, 0.05, 0.2])

@@ -123,7 +123,7 @@ def test_contour_works_under_jit_and_vmap() -> None:
 
 
 def test_a_polygon_of_a_thousand_corners_builds_and_its_contour_is_at_the_pusher_radius() -> None:
-    from dexpush.geometry import distance_to_polygons
+    from dexpush.model.shape import distance_to_polygons
 
     ang = np.sort(np.random.default_rng(0).uniform(-np.pi, np.pi, 1000))
     r = 0.08 + 0.02 * np.sin(5 * ang)

@@ -1,4 +1,10 @@
-"""The package's layering: no module imports one that is higher in meaning (docs/architecture.md)."""
+"""The package's layering: no module imports one that is higher in meaning (docs/architecture.md).
+
+Two levels: the sub-packages (and the few top-level modules) of ``dexpush`` form the layers of
+:data:`LAYERS`, and inside each sub-package its modules form the layers of :data:`INNER`. A
+module may import from strictly lower layers, or from its own package at a strictly lower inner
+layer; a package's ``__init__`` may import its own modules.
+"""
 
 from __future__ import annotations
 
@@ -9,67 +15,89 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "dexpush"
 
-#: lowest first; a module may import only from strictly lower layers (or its own sub-package)
+#: lowest first: the sub-packages (and top-level modules) of dexpush
 LAYERS = [
-    {"fastmath", "se2", "checks", "files", "compile_cache", "polygons", "xla_options", "arguments"},
-    {"geometry", "interfaces", "corner", "noise"},
+    {"common"},
     {"model"},
-    {"cost", "mppi", "ukf", "tasks", "fitting", "proposals"},
-    {"estimator", "dataset", "viz"},
-    {"policy"},
-    {"controller", "plants", "sensing", "gcs", "logs", "online"},
-    {"simulate"},
-    {"registry"},
-    {"records", "config"},
-    {"runner"},
-    {"tables"},
-    {"benchmark", "planner_flags"},
+    {"problem", "viz"},
+    {"control", "world", "gcs"},
+    {"data"},
+    {"experiments"},
     {"env", "cli", "__init__"},
 ]
 RANK = {name: i for i, layer in enumerate(LAYERS) for name in layer}
+
+#: lowest first, per sub-package: its modules (gcs/ is one unit: its own chain, one door)
+INNER = {
+    "common": [{"fastmath", "se2", "checks", "files", "compile_cache", "xla_options", "interfaces"}],
+    "model": [{"polygons"}, {"shape", "corner"}, {"cgvmm"}],
+    "problem": [{"cost"}],
+    "control": [{"noise", "ukf"}, {"mppi", "proposals", "estimator"}, {"policy"}, {"controller"}],
+    "world": [{"plants", "sensing"}],
+    "data": [{"fitting"}, {"mit"}, {"logs", "online"}],
+    "experiments": [{"scenarios"}, {"simulate"}, {"registry"}, {"records"}, {"runner"}, {"tables"},
+                    {"benchmark"}],
+    "cli": [{"arguments"}, {"config", "planner_flags"}, {"main"}],
+}
 
 
 def _modules() -> list[Path]:
     return sorted(p for p in PACKAGE.rglob("*.py"))
 
 
-def _top(path: Path) -> str:
-    rel = path.relative_to(PACKAGE).with_suffix("")
-    return rel.parts[0]
+def _parts(path: Path) -> tuple[str, ...]:
+    return path.relative_to(PACKAGE).with_suffix("").parts
 
 
-def _imports(path: Path) -> set[str]:
-    """The dexpush modules (first component below the package; ``__init__`` for the package root) that
-    ``path`` imports, anywhere in it; relative imports are reported as ``<relative>`` (not allowed)."""
-    out = set()
+def _imports(path: Path) -> set[tuple[str, ...]]:
+    """The dexpush modules ``path`` imports, as name parts below the package (``("__init__",)``
+    for a name from the package root); relative imports as ``("<relative>",)`` (not allowed)."""
+    out: set[tuple[str, ...]] = set()
     for node in ast.walk(ast.parse(path.read_text())):
         if isinstance(node, ast.ImportFrom) and node.level > 0:
-            out.add("<relative>")
+            out.add(("<relative>",))
         elif isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == "dexpush":
-            parts = node.module.split(".")
-            if len(parts) > 1:
-                out.add(parts[1])
-            else:  # from dexpush import X: a module, or a name from the package root
-                out.update(a.name if (PACKAGE / f"{a.name}.py").exists() or (PACKAGE / a.name).is_dir()
-                           else "__init__" for a in node.names)
+            parts = tuple(node.module.split(".")[1:])
+            for a in node.names:   # from dexpush.pkg import module, or a name from a module
+                sub = (*parts, a.name)
+                is_module = (PACKAGE.joinpath(*sub).with_suffix(".py").exists() or PACKAGE.joinpath(*sub).is_dir())
+                out.add(sub if is_module else (parts or ("__init__",)))
         elif isinstance(node, ast.Import):
             for a in node.names:
-                parts = a.name.split(".")
+                parts = tuple(a.name.split("."))
                 if parts[0] == "dexpush":
-                    out.add(parts[1] if len(parts) > 1 else "__init__")
+                    out.add(parts[1:] or ("__init__",))
     return out
 
 
 def test_every_module_has_a_layer() -> None:
-    missing = sorted({_top(p) for p in _modules()} - set(RANK))
-    assert not missing, f"give these modules a layer in tests/test_layout.py and docs/architecture.md: {missing}"
+    tops = {_parts(p)[0] for p in _modules()}
+    missing = sorted(tops - set(RANK))
+    assert not missing, f"give these a layer in tests/test_layout.py and docs/architecture.md: {missing}"
+    inner = {(q[0], q[1]) for q in map(_parts, _modules()) if len(q) == 2 and q[0] in INNER and q[1] != "__init__"
+             and q[1] != "__main__"}
+    listed = {(pkg, m) for pkg, layers in INNER.items() for layer in layers for m in layer}
+    assert not sorted(inner - listed), f"give these modules an inner layer: {sorted(inner - listed)}"
+
+
+def _inner_rank(pkg: str, module: str) -> int:
+    return next(i for i, layer in enumerate(INNER[pkg]) if module in layer)
 
 
 @pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
 def test_no_upward_or_sideways_import(path: Path) -> None:
-    me = _top(path)
-    bad = sorted(m for m in _imports(path) if m != me and RANK.get(m, len(LAYERS)) >= RANK[me])
-    assert not bad, f"{path.name} (layer {RANK[me]}) imports {bad} from its own layer or above"
+    me = _parts(path)
+    bad = []
+    for other in _imports(path):
+        if other == ("<relative>",):
+            bad.append("a relative import")
+        elif other[0] != me[0]:
+            if RANK.get(other[0], len(LAYERS)) >= RANK[me[0]]:
+                bad.append(".".join(other))
+        elif me[0] in INNER and len(me) == 2 and me[1] not in ("__init__", "__main__"):
+            if len(other) < 2 or _inner_rank(me[0], other[1]) >= _inner_rank(me[0], me[1]):
+                bad.append(".".join(other))
+    assert not bad, f"{'/'.join(me)} imports {sorted(bad)} from its own layer or above"
 
 
 @pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))

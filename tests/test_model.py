@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 import reference as ref
 from dexpush import LAMBDA_TRUE, Shape, cgvmm, contact_solution, force_motion
-from dexpush.model import FREE, SLIDE_CCW, SLIDE_CW, STICK, Contour, step
+from dexpush.model.cgvmm import FREE, SLIDE_CCW, SLIDE_CW, STICK, Contour, step
 from scenes import scenes_with_pusher_at
 
 

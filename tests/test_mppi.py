@@ -12,8 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dexpush import Shape
-from dexpush.controller import ControllerSettings, PushingController
-from dexpush.mppi import MPPISettings, mppi_iteration, shift_in_time
+from dexpush.control.controller import ControllerSettings, PushingController
+from dexpush.control.mppi import MPPISettings, mppi_iteration, shift_in_time
 
 
 @functools.cache

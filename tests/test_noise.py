@@ -1,4 +1,4 @@
-"""The counter-based Gaussian noise of MPPI (dexpush.noise), the partition median and fastmath.materialize."""
+"""The counter-based Gaussian noise of MPPI (dexpush.control.noise), the partition median and fastmath.materialize."""
 
 from __future__ import annotations
 
@@ -10,8 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
-from dexpush import fastmath, noise
-from dexpush.mppi import _median
+from dexpush.common import fastmath
+from dexpush.control import noise
+from dexpush.control.mppi import _median
 
 
 def test_draws_are_standard_normal() -> None:

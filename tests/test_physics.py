@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from dexpush import Shape
-from dexpush.plants import PhysicsPlant, PhysicsSettings, _support_points
+from dexpush.world.plants import PhysicsPlant, PhysicsSettings, _support_points
 
 pytest.importorskip("mujoco")
 
@@ -82,7 +82,7 @@ def test_a_concave_polygon_is_simulated_as_itself_not_its_hull(name: str, corner
                                                                  pusher: tuple, pieces: int) -> None:
     """A non-convex polygon becomes convex prisms that tile it: the pusher moves freely in the notch
     (MuJoCo would otherwise collide it with the hull) and pushes the object once it reaches the faces."""
-    from dexpush.plants import convex_prisms
+    from dexpush.world.plants import convex_prisms
 
     shape = Shape.polygon(corners, reference=reference, name=name)
     assert len(convex_prisms(shape)) == pieces
@@ -112,8 +112,8 @@ def test_support_pressure_patterns(pressure: str) -> None:
 
 
 def test_randomized_worlds_are_seeded_and_within_their_ranges() -> None:
-    from dexpush.registry import make_plant, world_sensor
-    from dexpush.sensing import SensorSettings
+    from dexpush.experiments.registry import make_plant, world_sensor
+    from dexpush.world.sensing import SensorSettings
 
     worlds = [PhysicsSettings.randomized(s) for s in range(40)]
     assert PhysicsSettings.randomized(3) == worlds[3] and worlds[3] != worlds[4]

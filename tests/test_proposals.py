@@ -1,4 +1,4 @@
-"""Contact proposals (dexpush.proposals) and MPPI's use of them."""
+"""Contact proposals (dexpush.control.proposals) and MPPI's use of them."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dexpush import Shape
-from dexpush.model import Contour
-from dexpush.mppi import MPPISettings, mppi_iteration
-from dexpush.proposals import contact_proposals
+from dexpush.control.mppi import MPPISettings, mppi_iteration
+from dexpush.control.proposals import contact_proposals
+from dexpush.model.cgvmm import Contour
 
 MP = MPPISettings()
 SLOTS = jnp.asarray(MP.step_durations(), jnp.float32)

@@ -13,13 +13,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import dexpush
-from dexpush.controller import ControllerSettings, PushingController, _estimate_jit, policy_init, policy_step
-from dexpush.cost import Scene
-from dexpush.estimator import UKFSettings, estimator_init, estimator_observe
-from dexpush.interfaces import Observation
-from dexpush.model import Contour
-from dexpush.plants import ModelPlant
-from dexpush.ukf import UKFState
+from dexpush.common.interfaces import Observation
+from dexpush.control.controller import ControllerSettings, PushingController, _estimate_jit, policy_init, policy_step
+from dexpush.control.estimator import UKFSettings, estimator_init, estimator_observe
+from dexpush.control.ukf import UKFState
+from dexpush.model.cgvmm import Contour
+from dexpush.problem.cost import Scene
+from dexpush.world.plants import ModelPlant
 
 SHAPE = dexpush.Shape.rectangle()
 SETTINGS = ControllerSettings(estimate_params=True, mppi=dexpush.MPPISettings(num_samples=128))
@@ -129,8 +129,8 @@ def test_act_takes_any_frame_period_without_recompiling() -> None:
     (lambda: UKFSettings(process_std=(0.5, float("nan"), 5e-4)), "process_std"),
     (lambda: UKFSettings(alpha=float("nan")), "alpha"),
     (lambda: UKFSettings(gate_speed_m_s=0.0), "gate_speed_m_s"),
-    (lambda: ControllerSettings(weights=dexpush.controller.CostWeights(q_f=float("nan"))), "q_f"),
-    (lambda: dexpush.controller.CostWeights(r_s=-0.2), "r_s"),
+    (lambda: ControllerSettings(weights=dexpush.control.controller.CostWeights(q_f=float("nan"))), "q_f"),
+    (lambda: dexpush.control.controller.CostWeights(r_s=-0.2), "r_s"),
     (lambda: PushingController(SHAPE, (0, 0, 0), params=(25, 0, 0), seed=float("nan")), "seed"),
     (lambda: PushingController(SHAPE, (0, 0, 0), params=(25, 0, 0), seed=2**32), "seed"),
 ])
@@ -191,7 +191,7 @@ def test_unusable_input_is_refused_with_the_reason(call, match: str) -> None:
 
 @pytest.mark.parametrize("plant", ["model", "physics"])
 def test_a_speed_that_would_tunnel_through_the_object_is_refused(plant: str) -> None:
-    from dexpush.registry import make_plant
+    from dexpush.experiments.registry import make_plant
 
     p = make_plant(plant, SHAPE)
     p.reset((0.0, 0.0, 0.0), (-0.2, 0.0))
@@ -250,7 +250,7 @@ def test_results_do_not_depend_on_where_the_world_origin_is() -> None:
 
 
 def test_the_physics_plant_refuses_an_outline_too_ragged_to_simulate() -> None:
-    from dexpush.plants import MAX_PRISMS, PhysicsPlant
+    from dexpush.world.plants import MAX_PRISMS, PhysicsPlant
 
     t = np.linspace(0, 2 * np.pi, 2 * 80, endpoint=False)                   # a star with 80 points
     star = np.stack([np.cos(t), np.sin(t)], -1) * np.where(np.arange(160) % 2, 0.07, 0.1)[:, None]

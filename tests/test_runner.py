@@ -7,10 +7,10 @@ import pytest
 
 import dexpush
 from dexpush import Observation, PushingController, Shape, run_episode, run_loop
-from dexpush.interfaces import Controller, Plant, check_plant
-from dexpush.plants import ModelPlant
-from dexpush.sensing import SensorSettings
-from dexpush.tasks import Task
+from dexpush.common.interfaces import Controller, Plant, check_plant
+from dexpush.experiments.scenarios import Task
+from dexpush.world.plants import ModelPlant
+from dexpush.world.sensing import SensorSettings
 
 
 class EulerPlant:

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from dexpush import Shape
-from dexpush.plants import ModelPlant
-from dexpush.sensing import Camera, SensorSettings
+from dexpush.world.plants import ModelPlant
+from dexpush.world.sensing import Camera, SensorSettings
 
 
 def run_camera(settings: SensorSettings, steps: int = 75) -> tuple[Camera, list]:
@@ -59,7 +59,7 @@ def test_bad_settings_are_named(bad: dict) -> None:
 def test_controller_copes_with_a_slow_late_lossy_camera() -> None:
     """Task II on the model plant through a realistic camera: the controller holds, predicts,
     and skips UKF updates on missing frames; the run makes clear progress toward the goal."""
-    from dexpush.runner import run_episode
+    from dexpush.experiments.runner import run_episode
 
     ep = run_episode("II", "rect", params="unknown", method="mppi-ukf", seed=1, max_steps=150,
                      sensor=SensorSettings.realistic())
@@ -75,9 +75,9 @@ def test_planning_state_is_the_frame_predicted_to_the_present() -> None:
     """``planning_state`` (world frame) is the observation for ``command``; for ``act`` the newest
     frame moved on by the commands issued since its capture, and the frame itself when it is fresh."""
     from dexpush import PushingController, Shape
-    from dexpush.interfaces import Observation
-    from dexpush.model import LAMBDA_TRUE
-    from dexpush.se2 import footprint_shift
+    from dexpush.common.interfaces import Observation
+    from dexpush.common.se2 import footprint_shift
+    from dexpush.model.cgvmm import LAMBDA_TRUE
 
     shape = Shape.rectangle()
     ctrl = PushingController(shape, goal=(1.6, 2.3, 0.0), params=LAMBDA_TRUE)

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dexpush.controller import ControllerSettings, PushingController
-from dexpush.plants import ModelPlant
-from dexpush.registry import make_shape
-from dexpush.simulate import TrialSpec, simulate
-from dexpush.tasks import get_task, initial_conditions
+from dexpush.control.controller import ControllerSettings, PushingController
+from dexpush.experiments.registry import make_shape
+from dexpush.experiments.scenarios import get_task, initial_conditions
+from dexpush.experiments.simulate import TrialSpec, simulate
+from dexpush.world.plants import ModelPlant
 
 UNKNOWN = (15.0, 0.0, 0.0)
 
@@ -90,7 +90,7 @@ def test_bad_trial_is_named() -> None:
 
 def test_touching_an_obstacle_fails_the_trial_at_the_touch() -> None:
     """docs/conventions.md#benchmark-tasks: a disc under the object's start touches it at once; the trial ends there."""
-    from dexpush.tasks import Task
+    from dexpush.experiments.scenarios import Task
 
     task = Task("X", "touch", goal=(0.6, 0.0, 0.0), obstacles=((0.0, 0.0, 0.02),))
     out = simulate(task, make_shape("rect"), [TrialSpec(0), TrialSpec(1)], lanes=1, max_steps=50)
@@ -98,7 +98,7 @@ def test_touching_an_obstacle_fails_the_trial_at_the_touch() -> None:
 
 
 def test_a_trial_that_starts_at_its_goal_takes_no_steps() -> None:
-    from dexpush.tasks import Task
+    from dexpush.experiments.scenarios import Task
 
     task = Task("X", "at goal", goal=(0.0, 0.0, 0.0), start_jitter_m=0.0, start_jitter_deg=0.0)
     out = simulate(task, make_shape("rect"), [TrialSpec(0)], lanes=1, max_steps=5)[0]
@@ -111,8 +111,8 @@ def test_a_per_lane_estimate_flag_updates_exactly_the_lanes_it_marks() -> None:
     import jax
     import jax.numpy as jnp
 
-    from dexpush.controller import estimate_step, policy_init
-    from dexpush.model import Contour
+    from dexpush.control.controller import estimate_step, policy_init
+    from dexpush.model.cgvmm import Contour
 
     shape = make_shape("rect")
     settings, contour = ControllerSettings(), Contour.of(shape)

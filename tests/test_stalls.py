@@ -14,10 +14,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from dexpush import Shape
-from dexpush.controller import ControllerSettings, plan_step, policy_init, watch_progress
-from dexpush.cost import Scene
-from dexpush.model import LAMBDA_TRUE, Contour
-from dexpush.mppi import slot_durations
+from dexpush.control.controller import ControllerSettings, plan_step, policy_init, watch_progress
+from dexpush.control.mppi import slot_durations
+from dexpush.model.cgvmm import LAMBDA_TRUE, Contour
+from dexpush.problem.cost import Scene
 
 SHAPE = Shape.rectangle()
 SCENE = Scene.make(SHAPE, (0.6, 0.0, 0.0))
@@ -183,9 +183,9 @@ def test_near_the_goal_the_plan_weights_its_samples_with_the_endgame_temperature
 def test_a_horizon_stretched_through_the_inputs_plans_as_one_stretched_through_the_slots() -> None:
     """``rate_independent``: s·v held for Δt instead of v for s·Δt; the same samples, so the same
     plan to float32 round-off, on the T beside the obstacle of Task III (the C-GVMM is quasi-static)."""
-    from dexpush.cost import running_cost, terminal_cost
-    from dexpush.model import step
-    from dexpush.mppi import mppi_iteration
+    from dexpush.control.mppi import mppi_iteration
+    from dexpush.model.cgvmm import step
+    from dexpush.problem.cost import running_cost, terminal_cost
 
     shape = Shape.tee()
     contour = Contour.of(shape)

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from dexpush import Shape
-from dexpush.cost import Scene, collides
-from dexpush.model import Contour, contact_gap
-from dexpush.runner import run_episode
-from dexpush.se2 import pose_error
-from dexpush.tasks import TASKS, Task, get_task, initial_conditions, is_success
+from dexpush.common.se2 import pose_error
+from dexpush.experiments.runner import run_episode
+from dexpush.experiments.scenarios import TASKS, Task, get_task, initial_conditions, is_success
+from dexpush.model.cgvmm import Contour, contact_gap
+from dexpush.problem.cost import Scene, collides
 
 
 def test_tasks_match_the_spec() -> None:
@@ -69,7 +69,7 @@ def test_short_closed_loop_episode_reaches_a_nearby_goal() -> None:
 
 
 def test_effective_free_roaming_radius() -> None:
-    from dexpush.cost import CostWeights
+    from dexpush.problem.cost import CostWeights
 
     assert float(Scene.make(Shape.rectangle(), (0, 0, 0)).r_s) == pytest.approx(0.2)
     tee = Shape.tee()
@@ -86,7 +86,7 @@ def test_task_three_run_never_touches_the_obstacle() -> None:
 
 def test_the_cost_keeps_a_margin_that_the_reported_collision_does_not() -> None:
     """The planner's collision test uses discs grown by obstacle_margin_m; a trial fails only on a real touch."""
-    from dexpush.cost import CostWeights, running_cost
+    from dexpush.problem.cost import CostWeights, running_cost
 
     shape, w = Shape.rectangle(), CostWeights()
     scene = Scene.make(shape, (0.6, 0, 0), ((0.30, 0.0, 0.05),), w)

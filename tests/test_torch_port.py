@@ -1,5 +1,5 @@
 """The torch port of the C-GVMM step in benchmarks/mppi_speed.py (pytorch-mppi's dynamics) matches
-dexpush.model.step, so the speed comparison races the same model. Needs torch (the ``bench`` extra)."""
+dexpush.model.cgvmm.step, so the speed comparison races the same model. Needs torch (the ``bench`` extra)."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ torch = pytest.importorskip("torch")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
 from dexpush import Shape  # noqa: E402
-from dexpush.model import LAMBDA_TRUE, Contour, step  # noqa: E402
-from dexpush.mppi import MPPISettings  # noqa: E402
+from dexpush.control.mppi import MPPISettings  # noqa: E402
+from dexpush.model.cgvmm import LAMBDA_TRUE, Contour, step  # noqa: E402
 from mppi_speed import torch_problem  # noqa: E402
 
 

@@ -14,10 +14,10 @@ from hypothesis import settings as hypothesis_settings
 from hypothesis import strategies as st
 
 from dexpush import Shape
-from dexpush.estimator import UKFSettings, estimator_init, estimator_observe, rate_limited
-from dexpush.model import Contour
-from dexpush.plants import ModelPlant
-from dexpush.ukf import SigmaPoints, UKFState, ukf_update
+from dexpush.control.estimator import UKFSettings, estimator_init, estimator_observe, rate_limited
+from dexpush.control.ukf import SigmaPoints, UKFState, ukf_update
+from dexpush.model.cgvmm import Contour
+from dexpush.world.plants import ModelPlant
 
 TRUE = np.array([25.0, -0.01, 0.02])
 

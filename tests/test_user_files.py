@@ -12,10 +12,10 @@ from hypothesis import strategies as st
 
 from dexpush import Shape
 from dexpush.cli import main
-from dexpush.config import RunConfig, build_plant, build_task, default_config, load_config, to_toml
-from dexpush.logs import read_log
-from dexpush.plants import ModelPlant
-from dexpush.polygons import kernel_point, radial_table_polygons
+from dexpush.cli.config import RunConfig, build_plant, build_task, default_config, load_config, to_toml
+from dexpush.data.logs import read_log
+from dexpush.model.polygons import kernel_point, radial_table_polygons
+from dexpush.world.plants import ModelPlant
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "shapes"
 L_BLOCK = [[0.0, 0.0], [0.20, 0.0], [0.20, 0.05], [0.05, 0.05], [0.05, 0.15], [0.0, 0.15]]

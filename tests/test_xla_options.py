@@ -1,4 +1,4 @@
-"""dexpush.xla_options: what importing dexpush sets for XLA, and when it leaves the process alone."""
+"""dexpush.common.xla_options: what importing dexpush sets for XLA, and when it leaves the process alone."""
 
 from __future__ import annotations
 

@@ -11,16 +11,16 @@ The stable public API (names and settings fields kept from version 0.2 on; see d
   benchmark trial by name).
 """
 
-from dexpush import xla_options  # noqa: F401  (first: sets XLA_FLAGS before any JAX backend starts)
-from dexpush.controller import ControllerSettings, PushingController
-from dexpush.estimator import UKFSettings
-from dexpush.geometry import Shape
-from dexpush.interfaces import Controller, Observation, Plant
-from dexpush.model import LAMBDA_TRUE, MODE_NAMES, cgvmm, contact_solution, force_motion
-from dexpush.mppi import MPPISettings
-from dexpush.runner import run_episode, run_loop
-from dexpush.sensing import Camera, SensorSettings
-from dexpush.tasks import Task
+from dexpush.common import xla_options  # noqa: F401  (first: sets XLA_FLAGS before any JAX backend starts)
+from dexpush.common.interfaces import Controller, Observation, Plant
+from dexpush.control.controller import ControllerSettings, PushingController
+from dexpush.control.estimator import UKFSettings
+from dexpush.control.mppi import MPPISettings
+from dexpush.experiments.runner import run_episode, run_loop
+from dexpush.experiments.scenarios import Task
+from dexpush.model.cgvmm import LAMBDA_TRUE, MODE_NAMES, cgvmm, contact_solution, force_motion
+from dexpush.model.shape import Shape
+from dexpush.world.sensing import Camera, SensorSettings
 
 __all__ = ["LAMBDA_TRUE", "MODE_NAMES", "Camera", "Controller", "ControllerSettings", "MPPISettings", "Observation",
            "Plant", "PushingController", "SensorSettings", "Shape", "Task", "UKFSettings", "cgvmm", "contact_solution",

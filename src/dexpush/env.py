@@ -20,7 +20,7 @@
   ``info["is_success"]`` says the same. **truncated**: after ``max_steps`` (N_max = 1500).
 * ``render_mode="rgb_array"``: the scene as an (H, W, 3) uint8 image.
 * ``plant``: ``model`` (C-GVMM with λ_true), ``physics`` (MuJoCo), or any object that
-  satisfies :class:`dexpush.interfaces.Plant` (your own simulator or robot driver);
+  satisfies :class:`dexpush.common.interfaces.Plant` (your own simulator or robot driver);
   ``shape``: a name or a :class:`dexpush.Shape`.
 * ``mppi``: :class:`dexpush.MPPISettings` whose ``v_max`` bounds the actions and whose
   ``control_period`` is how long each action is held.
@@ -44,15 +44,22 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from dexpush.cost import CostWeights
-from dexpush.geometry import Shape
-from dexpush.interfaces import Plant, check_plant
-from dexpush.mppi import MPPISettings
-from dexpush.plants import ModelPlant
-from dexpush.registry import PLANTS, make_plant, make_shape
-from dexpush.se2 import wrap_angle
-from dexpush.sensing import Camera, SensorSettings
-from dexpush.tasks import MAX_STEPS, SUCCESS_HEADING_DEG, SUCCESS_POSITION_M, Task, get_task, initial_conditions
+from dexpush.common.interfaces import Plant, check_plant
+from dexpush.common.se2 import wrap_angle
+from dexpush.control.mppi import MPPISettings
+from dexpush.experiments.registry import PLANTS, make_plant, make_shape
+from dexpush.experiments.scenarios import (
+    MAX_STEPS,
+    SUCCESS_HEADING_DEG,
+    SUCCESS_POSITION_M,
+    Task,
+    get_task,
+    initial_conditions,
+)
+from dexpush.model.shape import Shape
+from dexpush.problem.cost import CostWeights
+from dexpush.world.plants import ModelPlant
+from dexpush.world.sensing import Camera, SensorSettings
 
 __all__ = ["PushEnv", "VectorPushEnv"]
 

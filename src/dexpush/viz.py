@@ -13,9 +13,9 @@ import numpy as np
 from matplotlib.collections import LineCollection
 from matplotlib.patches import Circle, Polygon
 
-from dexpush.files import atomic_path
-from dexpush.geometry import Shape
-from dexpush.model import MODE_NAMES
+from dexpush.common.files import atomic_path
+from dexpush.model.cgvmm import MODE_NAMES
+from dexpush.model.shape import Shape
 
 __all__ = ["animate_episode", "plot_condition", "plot_episode", "plot_fit", "plot_shapes", "save_figure_atomic"]
 
@@ -26,7 +26,7 @@ SINGLE_MODES = MODE_NAMES[:4]
 
 
 def save_figure_atomic(fig: plt.Figure, path: str | os.PathLike, **kwargs: object) -> None:
-    """``fig.savefig`` through :func:`dexpush.files.atomic_path`."""
+    """``fig.savefig`` through :func:`dexpush.common.files.atomic_path`."""
     with atomic_path(path) as tmp:
         fig.savefig(tmp, **kwargs)
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dexpush.gcs.settings import PlanningError
-from dexpush.geometry import Shape, distance_to_polygons, is_convex
+from dexpush.model.shape import Shape, distance_to_polygons, is_convex
 
 __all__ = ["Face", "Region", "contact_faces", "free_regions", "region_graph", "region_route"]
 

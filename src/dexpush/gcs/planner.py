@@ -7,12 +7,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from dexpush.checks import check_params, checked_vector
+from dexpush.common.checks import check_params, checked_vector
 from dexpush.gcs.graph import build_graph, solve_relaxation, two_mode_paths
 from dexpush.gcs.problem import Plan, make_problem
 from dexpush.gcs.rounding import round_path, timed_reference
 from dexpush.gcs.settings import GCSSettings, PlanningError
-from dexpush.geometry import Shape
+from dexpush.model.shape import Shape
 
 __all__ = ["plan_push"]
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from dexpush.gcs.geometry import Face, Region, contact_faces, free_regions, region_graph, region_route
 from dexpush.gcs.settings import GCSSettings, PlanningError
-from dexpush.geometry import Shape
+from dexpush.model.shape import Shape
 
 __all__ = ["Plan", "Problem", "free_route_rows", "make_problem", "start_routes"]
 
@@ -101,7 +101,7 @@ class Problem:
 def make_problem(shape: Shape, start: np.ndarray, pusher: np.ndarray, goal: np.ndarray,
                  params: np.ndarray, mu: float, settings: GCSSettings) -> Problem:
     """The problem of pushing ``shape`` from ``start`` (pusher at ``pusher``, world frame) to ``goal``."""
-    from dexpush.model import limit_surface_matrix
+    from dexpush.model.cgvmm import limit_surface_matrix
 
     faces = contact_faces(shape, settings.sigma_margin_m)
     rho = shape.pusher_radius

@@ -6,12 +6,12 @@ import time
 
 import numpy as np
 
-from dexpush.checks import checked_vector
+from dexpush.common.checks import checked_vector
+from dexpush.common.se2 import pose_error
 from dexpush.gcs.planner import plan_push
 from dexpush.gcs.problem import Plan
 from dexpush.gcs.settings import GCSSettings, PlanningError
-from dexpush.geometry import Shape
-from dexpush.se2 import pose_error
+from dexpush.model.shape import Shape
 
 __all__ = ["GCSTracker"]
 
@@ -27,7 +27,7 @@ class GCSTracker:
     pusher), at most ``max_replans`` times (default 40). It gives up (:attr:`gave_up`, zero
     velocity from then on) when a plan fails, or when the last allowed plan has run out.
 
-    A control loop drives it like :class:`dexpush.controller.PushingController`::
+    A control loop drives it like :class:`dexpush.control.controller.PushingController`::
 
         tracker.reset(object_pose, pusher_xy)     # the offline plan, before the clock starts
         while ...:
@@ -85,11 +85,11 @@ class GCSTracker:
         """The pusher velocity for the next control period from what the sensor delivered, if anything.
 
         ``frame`` is an observation with ``.object_pose`` (3,) and ``.pusher_xy`` (2,) (a
-        :class:`dexpush.plants.Observation` or :class:`dexpush.sensing.Frame`): the result is
+        :class:`dexpush.world.plants.Observation` or :class:`dexpush.world.sensing.Frame`): the result is
         exactly :meth:`command` on it. ``None`` means no new observation arrived: the last
         frame seen is used again (``ValueError`` if no frame came since construction or
         :meth:`reset`). ``frame_period`` is accepted for symmetry with
-        :meth:`dexpush.controller.PushingController.act` and ignored: the tracker neither
+        :meth:`dexpush.control.controller.PushingController.act` and ignored: the tracker neither
         estimates nor predicts, and the frame's time is not used either.
         """
         del frame_period        # ignored, see the docstring

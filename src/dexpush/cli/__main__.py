@@ -1,0 +1,7 @@
+"""``python -m dexpush.cli``: the command line."""
+
+import sys
+
+from dexpush.cli.main import main
+
+sys.exit(main())

@@ -1,0 +1,252 @@
+"""A run's settings as one TOML file: ``dexpush run --config run.toml`` and ``--print-config``.
+
+The file has a table per settings class; every key is optional and takes the class's
+documented default when absent. ``dexpush run --print-config`` prints the full effective
+file, defaults included, so the easiest start is to save that and edit it::
+
+    [run]                       # what to push where (RunSettings)
+    task = "I"                  # I, II, III: the start distribution, and goal/obstacles unless given
+    shape = "examples/shapes/l_block.toml"   # rect, tee, ellipse, or a shape file (Shape.from_file)
+    goal = [0.4, 0.2, 0.5]      # x (m), y (m), θ (rad) of the shape's reference point
+    obstacles = [[0.2, 0.1, 0.03]]            # discs c_x, c_y, r (m)
+    method = "mppi-ukf"
+    lambda_pred = [20.0, 0.0, 0.0]            # the controller's first λ = [β, x_bf, y_bf]
+    true_params = [30.0, 0.005, 0.0]          # the model plant's λ_true
+    mu = 0.35                                 # the model plant's μ_c
+
+    [controller]                # ControllerSettings (mu: the μ_c the controller assumes)
+    [controller.mppi]           # MPPISettings (K = num_samples, N_p = horizon, v_max, ...)
+    [controller.weights]        # CostWeights (eq. 9)
+    [controller.ukf]            # UKFSettings
+    [sensor]                    # SensorSettings (what the controller sees)
+    [physics]                   # PhysicsSettings (the MuJoCo plant)
+
+Command-line flags override the file. Unknown keys are errors (with the allowed ones).
+A relative ``shape`` path is read relative to the config file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import types
+import typing
+from dataclasses import dataclass, field, fields, is_dataclass
+from pathlib import Path
+from typing import Any
+
+from dexpush.common.checks import check_params, check_positive, checked_vector
+from dexpush.common.files import read_toml
+from dexpush.common.interfaces import Plant
+from dexpush.control.controller import ControllerSettings
+from dexpush.experiments.registry import PARAMS, PLANTS, SHAPES, check_condition, make_shape
+from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task
+from dexpush.model.cgvmm import LAMBDA_TRUE
+from dexpush.model.shape import Shape
+from dexpush.world.plants import ModelPlant, PhysicsPlant, PhysicsSettings
+from dexpush.world.sensing import SensorSettings
+
+__all__ = ["RunConfig", "RunSettings", "build_plant", "build_task", "default_config", "lambda_pred", "load_config",
+           "load_shape", "to_dict", "to_toml"]
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """What to push where, with which method, in which world (the ``[run]`` table)."""
+
+    task: str = "I"                #: I, II or III: start distribution, and goal/obstacles unless given
+    shape: str = "rect"            #: rect, tee, ellipse, or a TOML shape file
+    goal: tuple[float, float, float] | None = None          #: (x, y, θ) in m, m, rad; None: the task's
+    obstacles: tuple[tuple[float, float, float], ...] | None = None   #: discs (c_x, c_y, r); None: the task's
+    params: str = "known"          #: known (λ_pred = λ_true) or unknown (λ_pred starts at [15, 0, 0])
+    lambda_pred: tuple[float, float, float] | None = None   #: the controller's first λ; overrides ``params``
+    method: str = "mppi"           #: mppi, mppi-ukf or gcs
+    seed: int = 0                  #: start perturbation and MPPI sampling
+    plant: str = "model"           #: model (C-GVMM) or physics (MuJoCo)
+    true_params: tuple[float, float, float] | None = None   #: model plant's λ_true; None: [25, −0.01, 0.02]
+    mu: float | None = None        #: model plant's μ_c; None: 0.3
+    max_steps: int = MAX_STEPS     #: N_max
+
+    def __post_init__(self) -> None:
+        get_task(self.task)
+        check_condition(self.params, self.method)
+        if self.plant not in PLANTS:
+            raise ValueError(f"unknown plant {self.plant!r}; choose one of {', '.join(PLANTS)}")
+        if self.shape not in SHAPES and not str(self.shape).endswith(".toml"):
+            raise ValueError(f"shape must be one of {', '.join(SHAPES)} or a .toml shape file, got {self.shape!r}")
+        if self.goal is not None:
+            checked_vector("goal", self.goal, 3)
+        for i, ob in enumerate(self.obstacles or ()):
+            c = checked_vector(f"obstacle {i}", ob, 3)
+            check_positive(f"obstacle {i} radius", c[2], "metres")
+        for name in ("lambda_pred", "true_params"):
+            if getattr(self, name) is not None:
+                check_params(checked_vector(name, getattr(self, name), 3))
+        if self.mu is not None:
+            check_positive("mu", self.mu, "the model plant's pusher–object friction")
+        if self.true_params is not None or self.mu is not None:
+            if self.plant != "model":
+                raise ValueError("true_params and mu set the model plant's world; the physics plant's friction is "
+                                 "[physics] pusher_friction / table_friction")
+        if isinstance(self.seed, bool) or int(self.seed) != self.seed or not 0 <= self.seed < 2**32:
+            raise ValueError(f"seed must be a whole number in [0, 2³²), got {self.seed!r}")
+        if isinstance(self.max_steps, bool) or int(self.max_steps) != self.max_steps or self.max_steps < 1:
+            raise ValueError(f"max_steps must be a whole number >= 1, got {self.max_steps!r}")
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """Every setting of one ``dexpush run``: the file's tables, one field each."""
+
+    run: RunSettings = field(default_factory=RunSettings)
+    controller: ControllerSettings = field(default_factory=ControllerSettings)
+    sensor: SensorSettings = field(default_factory=SensorSettings)
+    physics: PhysicsSettings = field(default_factory=PhysicsSettings)
+
+    def replace(self, **sections: dict[str, Any]) -> RunConfig:
+        """A copy with keys of some tables replaced, e.g. ``replace(run={"seed": 3})``; nested
+        tables as nested dicts (``controller={"mppi": {"num_samples": 256}}``)."""
+        return _from_dict(RunConfig, _merge(to_dict(self), sections), "config")
+
+
+# ---------------------------------------------------------------------------- dict <-> dataclass
+_NOT_IN_FILE = {("controller", "estimate_params")}     # set by run.method
+
+
+def to_dict(obj: Any, where: str = "") -> Any:
+    """A settings dataclass as nested dicts (tuples as lists), without the keys the file cannot set."""
+    if is_dataclass(obj):
+        return {f.name: to_dict(getattr(obj, f.name), f.name) for f in fields(obj)
+                if (where, f.name) not in _NOT_IN_FILE}
+    if isinstance(obj, tuple | list):
+        return [to_dict(v) for v in obj]
+    return obj
+
+
+def _merge(base: dict, over: dict) -> dict:
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
+def _tuples(v: Any) -> Any:
+    return tuple(_tuples(x) for x in v) if isinstance(v, list) else v
+
+
+def _from_dict(cls: type, data: Any, where: str) -> Any:
+    """``cls(**data)`` with nested settings tables, unknown keys refused by name."""
+    if not isinstance(data, dict):
+        raise ValueError(f"[{where}] must be a table of settings, got {data!r}")
+    hints = typing.get_type_hints(cls)
+    known = {f.name: f for f in fields(cls) if (where.rsplit(".", 1)[-1], f.name) not in _NOT_IN_FILE}
+    unknown = sorted(set(data) - set(known))
+    if unknown:
+        raise ValueError(f"unknown key {unknown[0]!r} in [{where}]; allowed: {', '.join(known)}")
+    kwargs = {}
+    for name, value in data.items():
+        hint = hints[name]
+        kinds = typing.get_args(hint) if isinstance(hint, types.UnionType) else (hint,)
+        sub = next((k for k in kinds if isinstance(k, type) and is_dataclass(k)), None)
+        kwargs[name] = _from_dict(sub, value, f"{where}.{name}" if where != "config" else name) if sub \
+            else _tuples(value)
+    try:
+        return cls(**kwargs)
+    except TypeError as exc:
+        raise ValueError(f"[{where}]: {exc}") from None
+
+
+def load_config(path: str | os.PathLike, overrides: dict[str, dict] | None = None) -> RunConfig:
+    """The :class:`RunConfig` of a TOML file (see the module docstring), with ``overrides``
+    (tables of keys, as :meth:`RunConfig.replace`) applied on top."""
+    path = Path(path)
+    doc = read_toml(path, "config file")
+    doc.pop("shape", None)                      # a shape table may live in the same file (Shape.from_file)
+    shape = doc.get("run", {}).get("shape") if isinstance(doc.get("run"), dict) else None
+    if isinstance(shape, str) and shape.endswith(".toml") and not Path(shape).is_absolute():
+        doc["run"]["shape"] = str(path.parent / shape)
+    return _from_dict(RunConfig, _merge(doc, overrides or {}), "config")
+
+
+def default_config(overrides: dict[str, dict] | None = None) -> RunConfig:
+    """The defaults, with ``overrides`` applied."""
+    return RunConfig().replace(**(overrides or {}))
+
+
+# ---------------------------------------------------------------------------- TOML text
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else ("inf" if v > 0 else "-inf" if v < 0 else "nan")
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise ValueError(f"cannot write {v!r} as TOML")
+
+
+def to_toml(config: RunConfig) -> str:
+    """The config as TOML text that :func:`load_config` reads back to the same settings.
+    Unset optional keys (None) are written as comments."""
+    lines: list[str] = ["# dexpush run configuration (dexpush run --config FILE); every key is optional"]
+
+    def table(name: str, d: dict) -> None:
+        lines.append(f"\n[{name}]")
+        nested = []
+        for k, v in d.items():
+            if isinstance(v, dict):
+                nested.append((k, v))
+            elif v is None:
+                lines.append(f"# {k} = ...   (unset: the default applies)")
+            else:
+                lines.append(f"{k} = {_toml_value(v)}")
+        for k, v in nested:
+            table(f"{name}.{k}", v)
+
+    for name, d in to_dict(config).items():
+        table(name, d)
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------------- objects of a run
+def load_shape(name_or_file: str) -> Shape:
+    """A standard shape by name, or a shape file (:meth:`dexpush.Shape.from_file`)."""
+    if name_or_file in SHAPES:
+        return make_shape(name_or_file)
+    if str(name_or_file).endswith(".toml"):
+        return Shape.from_file(name_or_file)
+    raise ValueError(f"shape must be one of {', '.join(SHAPES)} or a .toml shape file, got {name_or_file!r}")
+
+
+def build_task(run: RunSettings) -> Task:
+    """The task of a run: the named task, with the goal and obstacles replaced where given
+    (then keyed ``custom``: its records are not the benchmark's)."""
+    base = get_task(run.task)
+    if run.goal is None and run.obstacles is None:
+        return base
+    goal = tuple(float(v) for v in run.goal) if run.goal is not None else base.goal
+    obstacles = tuple(tuple(float(v) for v in ob) for ob in run.obstacles) if run.obstacles is not None \
+        else base.obstacles
+    return dataclasses.replace(base, key="custom", title=f"custom goal (start as task {base.key})", goal=goal,
+                               obstacles=obstacles)
+
+
+def build_plant(config: RunConfig, shape: Shape) -> str | Plant:
+    """The world of a run: a registry name when the defaults apply, else the plant object."""
+    run = config.run
+    if run.plant == "model" and (run.true_params is not None or run.mu is not None):
+        return ModelPlant(shape, run.true_params if run.true_params is not None else LAMBDA_TRUE,
+                          mu=run.mu if run.mu is not None else 0.3)
+    if run.plant == "physics" and config.physics != PhysicsSettings():
+        return PhysicsPlant(shape, config.physics)
+    return run.plant
+
+
+def lambda_pred(run: RunSettings) -> tuple[float, float, float]:
+    """The λ the controller starts from."""
+    return tuple(float(v) for v in run.lambda_pred) if run.lambda_pred is not None else PARAMS[run.params]
+

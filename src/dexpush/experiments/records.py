@@ -1,0 +1,173 @@
+"""What a finished trial leaves behind: its record (docs/conventions.md#benchmark-tasks), its trajectory,
+and per-condition summaries.
+
+An :class:`EpisodeRecord` is JSON-friendly and is what the benchmark's condition files
+hold; an :class:`Episode` adds the sampled trajectory. :func:`summarize` gives the
+per-condition numbers of docs/conventions.md#benchmark-tasks (success rate, path lengths, time to goal, planning time).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import jax.numpy as jnp
+import numpy as np
+
+from dexpush.common.se2 import pose_error
+from dexpush.experiments.scenarios import Task
+from dexpush.experiments.simulate import ESTIMATOR_COUNTERS, TrialResult
+from dexpush.model.cgvmm import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
+from dexpush.model.shape import Shape
+from dexpush.problem.cost import Scene, clearance_jit, collides_jit
+from dexpush.world.sensing import SensorSettings
+
+__all__ = ["CONDITION_KEYS", "Episode", "EpisodeRecord", "condition_name", "make_episode", "sensor_label",
+           "summarize"]
+
+CONDITION_KEYS = ("task", "shape", "params", "method")
+
+#: a trajectory is labelled (contact modes, obstacle touches) padded to a multiple of this many
+#: steps, so the jitted labelling compiles once per block count, not once per trajectory length
+#: (each compile took 3–4 s, more than the trial's own simulation: docs/performance.md#the-720-trial-table)
+LABEL_BLOCK = 256
+
+def _in_blocks(a: np.ndarray) -> np.ndarray:
+    """``a`` with its last row repeated up to a multiple of :data:`LABEL_BLOCK` rows."""
+    n = -(-len(a) // LABEL_BLOCK) * LABEL_BLOCK
+    return np.concatenate([a, np.repeat(a[-1:], n - len(a), axis=0)])
+
+
+def condition_name(task: str, shape: str, params: str, method: str) -> str:
+    """The file stem of a condition, e.g. ``I_rect_known_mppi``."""
+    return f"{task}_{shape}_{params}_{method}"
+
+
+@dataclass
+class EpisodeRecord:
+    """The per-trial record of docs/conventions.md#benchmark-tasks (JSON-friendly)."""
+
+    task: str
+    shape: str
+    params: str
+    method: str
+    seed: int
+    success: bool
+    steps: int                    #: control steps taken (to success, or N_max)
+    time_s: float                 #: simulated time (steps × control period)
+    object_path_m: float
+    pusher_path_m: float
+    final_error_m: float
+    final_error_deg: float
+    collisions: int               #: control steps that ended in collision with an obstacle
+    contact_switches: int         #: contact on/off transitions
+    planning_ms_median: float     #: batched runs: a lane's share of a control step's wall time (UKF + MPPI +
+    planning_ms_max: float        #: plant; chunk time / (lanes × steps)); other runs: the controller's time per act
+    params_estimate: list[float] | None = None
+    lanes: int = 1                #: lanes of the batch it ran in (needed to reproduce it exactly)
+    plant: str = "model"          #: the world: model (C-GVMM, λ_true), physics (MuJoCo), or a user's plant
+    sensor: str = "exact"         #: what the controller saw (see dexpush.world.sensing)
+    offline_plan_s: float | None = None   #: GCS: wall time of the offline plan (before the first step)
+    replans: int | None = None            #: GCS: plans made during tracking
+    rejected_frames: int | None = None    #: frames the λ estimator's gate rejected (outliers, non-finite)
+    estimator_resets: int | None = None   #: times the λ estimator was reset to its prior (non-finite state)
+    estimator_updates: int | None = None  #: informative windows that updated the λ estimate
+    gated_windows: int | None = None      #: of those, windows the innovation gate down-weighted
+    stall_resets: int | None = None       #: MPPI: planner restarts after a stall (docs/controller.md#stalls)
+    #: with obstacles: the smallest gap (m) between an obstacle and the object or the pusher over the trial
+    #: (≤ 0 on a touch; :func:`dexpush.problem.cost.clearance`)
+    clearance_m: float | None = None
+
+
+@dataclass
+class Episode:
+    """A finished episode: its record plus the sampled trajectory."""
+
+    record: EpisodeRecord
+    states: np.ndarray            #: (T+1, 5) true states
+    modes: np.ndarray             #: (T,) contact mode at the start of each control step
+    commands: np.ndarray          #: (T, 2)
+    planning_ms: np.ndarray       #: (T,) wall time per control step (amortized, see EpisodeRecord)
+    params: np.ndarray            #: (T, 3) λ_pred the controller planned with at each step
+    goal: np.ndarray
+    obstacles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+
+    def summary(self) -> dict:
+        return asdict(self.record)
+
+
+def _path_length(xy: np.ndarray) -> float:
+    return float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=-1)))
+
+
+def sensor_label(sensor: SensorSettings | None) -> str:
+    """A short human-readable description of what the controller saw."""
+    if sensor is None or sensor.perfect:
+        return "exact"
+    rate = f"{sensor.rate_hz:g} Hz" if sensor.rate_hz else "every step"
+    return (f"{rate}, noise {sensor.pos_std_m * 1e3:g} mm / {np.degrees(sensor.heading_std_rad):.2g}°, "
+            f"latency {sensor.latency_s * 1e3:g} ms, drops {sensor.drop_prob:.0%}")
+
+
+def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method: str, result: TrialResult,
+                 lanes: int, scene: Scene | None = None, plant: str = "model",
+                 sensor: SensorSettings | None = None, control_period: float = 0.04) -> Episode:
+    """The record (docs/conventions.md#benchmark-tasks) and trajectory of a finished trial.
+
+    Contact modes are labelled with the C-GVMM at λ_true (for the trajectory figure);
+    ``control_period`` converts steps to ``time_s``.
+    """
+    scene = scene or Scene.make(shape, task.goal, task.obstacles)
+    X, U = result.states, result.commands
+    if len(U):
+        n = len(U)
+        modes = np.asarray(contact_solution(Contour.of(shape), _in_blocks(X[:-1]), _in_blocks(U), LAMBDA_TRUE).mode)[:n]
+        xs = jnp.asarray(_in_blocks(X[1:]), jnp.float32)
+        hits = np.asarray(collides_jit(xs, scene))[:n]
+        gaps = np.asarray(clearance_jit(xs, scene))[:n] if len(task.obstacles) else None
+    else:
+        modes, hits, gaps = np.zeros(0, int), np.zeros(0, bool), None
+    in_contact = modes != MODE_NAMES.index("free")
+    pos_err, head_err = pose_error(X[-1, :3], task.goal)
+    ms = result.step_ms if len(result.step_ms) else np.zeros(1)
+    record = EpisodeRecord(
+        task=task.key, shape=shape_name, params=params, method=method, seed=result.spec.seed,
+        success=bool(result.success), steps=len(U), time_s=round(len(U) * control_period, 3),
+        object_path_m=round(_path_length(X[:, :2]), 4), pusher_path_m=round(_path_length(X[:, 3:]), 4),
+        final_error_m=round(float(pos_err), 5), final_error_deg=round(float(head_err), 3),
+        collisions=int(np.sum(hits)), contact_switches=int(np.sum(in_contact[1:] != in_contact[:-1])),
+        planning_ms_median=round(float(np.median(ms)), 3), planning_ms_max=round(float(np.max(ms)), 3),
+        params_estimate=[round(float(v), 5) for v in result.params[-1]] if method == "mppi-ukf" and len(U) else None,
+        lanes=int(lanes), plant=plant, sensor=sensor_label(sensor),
+        offline_plan_s=round(float(result.plan_s[0]), 3) if result.plan_s else None,
+        replans=len(result.plan_s) - 1 if result.plan_s else None,
+        stall_resets=result.stall_resets, clearance_m=round(float(gaps.min()), 5) if gaps is not None else None,
+        **{name: getattr(result, name) if method == "mppi-ukf" else None for name in ESTIMATOR_COUNTERS})
+    return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(task.goal),
+                   np.asarray(task.obstacles).reshape(-1, 3))
+
+
+def summarize(trials: list[dict]) -> dict:
+    """Per-condition numbers of docs/conventions.md#benchmark-tasks from its trial records."""
+    ok = [t for t in trials if t["success"]]
+
+    def mean_std(key: str) -> list[float] | None:
+        v = np.array([t[key] for t in ok], float)
+        return [round(float(v.mean()), 4), round(float(v.std()), 4)] if len(v) else None
+
+    plan = np.array([t["planning_ms_median"] for t in trials], float)
+    offline = np.array([t["offline_plan_s"] for t in trials if t.get("offline_plan_s") is not None], float)
+    replans = np.array([t["replans"] for t in trials if t.get("replans") is not None], float)
+    stalls = np.array([t["stall_resets"] for t in trials if t.get("stall_resets") is not None], float)
+    gaps = np.array([t["clearance_m"] for t in trials if t.get("clearance_m") is not None], float)
+    return {"trials": len(trials), "successes": len(ok),
+            "success_rate": round(len(ok) / len(trials), 4) if trials else None,
+            "object_path_m": mean_std("object_path_m"), "pusher_path_m": mean_std("pusher_path_m"),
+            "time_to_goal_s": mean_std("time_s"),
+            "planning_ms_median": round(float(np.median(plan)), 3) if len(plan) else None,
+            "planning_ms_max": round(float(max(t["planning_ms_max"] for t in trials)), 3) if trials else None,
+            "offline_plan_s": [round(float(np.median(offline)), 3), round(float(offline.max()), 3)]
+            if len(offline) else None,
+            "replans_mean": round(float(replans.mean()), 2) if len(replans) else None,
+            "stall_resets_mean": round(float(stalls.mean()), 2) if len(stalls) else None,
+            # every trial's smallest obstacle clearance: the least of them, and their median (m)
+            "clearance_m": [round(float(gaps.min()), 5), round(float(np.median(gaps)), 5)] if len(gaps) else None}

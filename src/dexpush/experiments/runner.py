@@ -1,0 +1,188 @@
+"""Closed-loop episodes: one loop for any plant and any controller, and episodes by name.
+
+:func:`run_loop` is *the* episode loop. It takes any :class:`dexpush.common.interfaces.Plant`
+(the model plant, the MuJoCo plant, your own simulator or robot driver) and any
+:class:`dexpush.common.interfaces.Controller` (MPPI, MPPI+UKF, the GCS tracker, your own), seen
+through an optional :class:`dexpush.world.sensing.Camera` model, and runs it at the control
+rate from Python, the way a robot runs:
+
+    frame = camera.reset(object_pose, pusher_xy)
+    controller.reset(frame.object_pose, frame.pusher_xy)   # compile / plan before the clock
+    repeat:  command = controller.act(frame, frame_period);  frame = camera.step(command, T)
+
+The controller only sees frames; success and obstacle contact are judged on the plant's
+true state. Many trials of MPPI on the model plant with exact observations are better run
+batched (:func:`dexpush.experiments.simulate.simulate`: one compiled, vmapped step for a whole batch);
+:func:`run_trial` picks that path on its own for named model-plant trials.
+
+:func:`run_episode` is one benchmark trial by names (``dexpush run``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import jax.numpy as jnp
+import numpy as np
+from tqdm import tqdm
+
+from dexpush.common.checks import check_params, checked_vector
+from dexpush.common.interfaces import Controller, Plant, check_plant
+from dexpush.control.controller import ControllerSettings
+from dexpush.experiments.records import Episode, make_episode
+from dexpush.experiments.registry import (
+    PARAMS,
+    PLANTS,
+    check_condition,
+    make_controller,
+    make_plant,
+    make_shape,
+    world_sensor,
+)
+from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task, initial_conditions, is_success
+from dexpush.experiments.simulate import ESTIMATOR_COUNTERS, TrialResult, TrialSpec, simulate
+from dexpush.model.shape import Shape
+from dexpush.problem.cost import Scene, collides
+from dexpush.world.sensing import Camera, SensorSettings
+
+__all__ = ["batched", "plant_name", "run_episode", "run_loop", "run_trial", "trial_spec"]
+
+
+def run_loop(plant: Plant, controller: Controller, task: Task, shape: Shape, object_pose: object,
+             pusher_xy: object, *, sensor: SensorSettings | None = None, control_period: float = 0.04,
+             max_steps: int = MAX_STEPS, spec: TrialSpec | None = None, progress: bool = False,
+             desc: str = "episode") -> TrialResult:
+    """Run ``controller`` on ``plant`` from the given start until success, N_max steps, an
+    obstacle touch, or the controller gives up (see the module docstring).
+
+    Args:
+        plant: the world (any :class:`dexpush.common.interfaces.Plant`).
+        controller: any :class:`dexpush.common.interfaces.Controller`.
+        task: goal pose and obstacles (success: 8 mm and 3° on the true pose, docs/conventions.md#benchmark-tasks).
+        shape: the object, for the obstacle-contact check.
+        object_pose, pusher_xy: the start.
+        sensor: what the controller sees (default: the exact state every control period).
+        control_period: T (s), how long each command is held.
+        max_steps: N_max.
+        spec: recorded in the result (seed, λ_pred, estimate flag); default seed 0.
+        progress: a progress bar on stderr.
+
+    Returns:
+        a :class:`dexpush.experiments.simulate.TrialResult`: true states, commands, the controller's
+        λ per step (NaN when it has none), its wall time per ``act`` (ms), and the plan
+        times of a planning controller.
+    """
+    if max_steps < 1:
+        raise ValueError(f"max_steps must be >= 1, got {max_steps}")
+    if not (np.isfinite(control_period) and control_period > 0):
+        raise ValueError(f"control_period must be > 0 (s), got {control_period!r}")
+    sensor = sensor or SensorSettings()
+    camera = Camera(plant, sensor)
+    frame = camera.reset(object_pose, pusher_xy)
+    frame_period = 1.0 / sensor.rate_hz if sensor.rate_hz else control_period
+    controller.reset(frame.object_pose, frame.pusher_xy)     # slow preparation happens before the clock
+    scene = Scene.make(shape, task.goal, task.obstacles) if task.obstacles else None
+    states, commands, lam, ms = [camera.state], [], [], []
+    success = bool(is_success(camera.state[:3], task.goal))
+    bar = tqdm(total=max_steps, desc=desc, unit="step", disable=not progress, leave=False)
+    while not success and len(commands) < max_steps and not getattr(controller, "gave_up", False):
+        t0 = time.perf_counter()
+        u = np.asarray(controller.act(frame, frame_period), dtype=np.float64)
+        ms.append((time.perf_counter() - t0) * 1e3)
+        lam.append(np.asarray(getattr(controller, "params", np.full(3, np.nan)), dtype=np.float64))
+        frame = camera.step(u, control_period)
+        commands.append(u)
+        states.append(camera.state)
+        success = bool(is_success(camera.state[:3], task.goal))
+        bar.update(1)
+        if scene is not None and bool(collides(jnp.asarray(camera.state, jnp.float32), scene)):
+            success = False          # touching the obstacle fails the trial (conventions.md#benchmark-tasks)
+            break
+    bar.close()
+    return TrialResult(spec or TrialSpec(0), success, np.asarray(states), np.asarray(commands).reshape(-1, 2),
+                       np.asarray(lam).reshape(-1, 3), np.asarray(ms),
+                       tuple(getattr(controller, "planning_s", ())),
+                       *(getattr(controller, name, None) for name in ESTIMATOR_COUNTERS),
+                       stall_resets=getattr(controller, "stall_resets", None))
+
+
+def plant_name(plant: str | Plant) -> str:
+    """How a record names the plant: its registry name, or the class name of a plant object."""
+    return plant if isinstance(plant, str) else type(plant).__name__
+
+
+def trial_spec(params: str | object, method: str, seed: int) -> TrialSpec:
+    """The :class:`TrialSpec` of one trial; ``params`` is a scenario name (``known``,
+    ``unknown``) or the λ_pred = [β, x_bf, y_bf] the controller starts from."""
+    if isinstance(params, str):
+        check_condition(params, method)
+        lam = PARAMS[params]
+    else:
+        check_condition("known", method)
+        vec = checked_vector("params", params, 3)
+        check_params(vec)
+        lam = tuple(float(v) for v in vec)
+    return TrialSpec(int(seed), lam, method == "mppi-ukf")
+
+
+def batched(plant: str | Plant, method: str, sensor: SensorSettings | None) -> bool:
+    """Whether a trial runs in the batched simulator: MPPI on the model plant, exact observations."""
+    return plant == "model" and method != "gcs" and (sensor is None or sensor.perfect)
+
+
+def run_trial(task: Task, shape: Shape, spec: TrialSpec, method: str, plant: str | Plant = "model",
+              sensor: SensorSettings | None = None, settings: ControllerSettings | None = None,
+              max_steps: int = MAX_STEPS, progress: bool = False, lanes: int = 1, chunk: int = 25) -> TrialResult:
+    """One trial: batched on the model plant with exact observations (``lanes``, ``chunk``:
+    see :func:`dexpush.experiments.simulate.simulate`), otherwise through :func:`run_loop`.
+
+    ``plant`` is a name from :data:`dexpush.experiments.registry.PLANTS` or a plant object. A
+    realistic ``sensor`` is reseeded per trial (its seed × 1,000,003 + the trial seed);
+    ``physics-random`` builds world ``spec.seed`` with its own camera (``sensor`` is unused).
+    """
+    settings = settings or ControllerSettings()
+    if batched(plant, method, sensor):
+        return simulate(task, shape, [spec], settings, max_steps=max_steps, lanes=lanes, chunk=chunk,
+                        progress=progress, desc=f"task {task.key} {shape.name}")[0]
+    if method == "gcs" and sensor is not None and not sensor.perfect:
+        raise ValueError("the GCS baseline runs with exact observations only (no camera options)")
+    if sensor is not None:
+        sensor = replace(sensor, seed=sensor.seed * 1_000_003 + spec.seed)
+    sensor = world_sensor(plant, sensor, spec.seed)
+    world = make_plant(plant, shape, spec.seed) if isinstance(plant, str) else check_plant(plant)
+    controller = make_controller(method, shape, task, spec.params, spec.seed, settings)
+    pose, pusher = initial_conditions(task, shape, spec.seed)
+    return run_loop(world, controller, task, shape, pose, pusher, sensor=sensor,
+                    control_period=settings.mppi.control_period, max_steps=max_steps, spec=spec, progress=progress,
+                    desc=f"task {task.key} {shape.name} ({method}, {plant_name(plant)})")
+
+
+def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str | object = "known",
+                method: str = "mppi", seed: int = 0, max_steps: int = MAX_STEPS,
+                settings: ControllerSettings | None = None, progress: bool = False, lanes: int = 1,
+                chunk: int = 25, plant: str | Plant = "model", sensor: SensorSettings | None = None) -> Episode:
+    """Run one closed-loop trial (docs/conventions.md#benchmark-tasks) and record it.
+
+    ``params`` is ``"known"``, ``"unknown"`` or a λ_pred = [β, x_bf, y_bf] to start from
+    (recorded as ``custom``).
+
+    ``plant`` is ``"model"``, ``"physics"`` or any :class:`dexpush.common.interfaces.Plant`
+    object (your own simulator or robot). On the model plant with exact observations and
+    an MPPI method the trial runs in the batched simulator (``lanes`` =
+    :data:`dexpush.experiments.benchmark.BENCH_LANES` reproduces the benchmark's record of this seed
+    exactly); otherwise in :func:`run_loop`.
+    """
+    task = get_task(task)
+    shape_name = shape if isinstance(shape, str) else shape.name
+    shape = make_shape(shape) if isinstance(shape, str) else shape
+    spec = trial_spec(params, method, seed)
+    if max_steps < 1:
+        raise ValueError(f"max_steps must be >= 1, got {max_steps}")
+    if isinstance(plant, str) and plant not in PLANTS:
+        raise ValueError(f"unknown plant {plant!r}; choose one of {', '.join(PLANTS)}")
+    settings = settings or ControllerSettings()
+    result = run_trial(task, shape, spec, method, plant, sensor, settings, max_steps, progress, lanes, chunk)
+    return make_episode(task, shape_name, shape, params if isinstance(params, str) else "custom", method, result,
+                        lanes if batched(plant, method, sensor) else 1, plant=plant_name(plant),
+                        sensor=world_sensor(plant, sensor, seed), control_period=settings.mppi.control_period)

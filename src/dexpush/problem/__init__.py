@@ -1,0 +1,2 @@
+"""What a pushing experiment asks for: the object, the goal, the obstacles and the cost of eq. (9)
+(the problem a method solves, a *task* in MuJoCo MPC's sense)."""

@@ -1,0 +1,367 @@
+"""Plants: the "world" a controller pushes in experiments.
+
+A plant owns the true state and answers ``reset(object_pose, pusher_xy)`` and
+``step(velocity, dt)`` with an :class:`dexpush.common.interfaces.Observation`: both plants here
+satisfy the :class:`dexpush.common.interfaces.Plant` protocol. The controller only ever sees
+observations.
+
+:class:`ModelPlant` is the paper's numerical-experiment world (docs/conventions.md#plants): the C-GVMM with
+the true parameters λ_true, integrated with ``substeps`` Euler steps per control period
+and the penetration fix of :func:`dexpush.model.cgvmm.step`, so the pusher never ends a step
+inside the inflated contour by more than numerical round-off (docs/conventions.md#plants allows 1 mm).
+It works on one scene or a batch: give poses with a leading batch axis.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from dexpush.common.checks import check_params, check_positive, checked_vector
+from dexpush.common.interfaces import Observation
+from dexpush.model.cgvmm import LAMBDA_TRUE, Contour, contact_gap, integrate
+from dexpush.model.polygons import convex_hull, convex_pieces, distance_to_polygons
+from dexpush.model.shape import Shape
+
+__all__ = ["ModelPlant", "PhysicsPlant", "PhysicsSettings"]
+
+
+def _check_no_tunnelling(velocity: np.ndarray, h: float, rho: float, knob: str) -> None:
+    """Refuse a pusher speed that moves it more than its radius in one integration step: it could pass
+    through a thin part of the object without ever being seen inside it."""
+    speed = float(np.max(np.linalg.norm(np.atleast_2d(velocity), axis=-1)))
+    if speed * h > rho:
+        raise ValueError(f"a pusher speed of {speed:.3g} m/s moves the pusher {speed * h * 1e3:.3g} mm per "
+                         f"integration step, more than its radius ({rho * 1e3:.3g} mm): it could pass through the "
+                         f"object. Lower the speed (at most {rho / h:.3g} m/s) or refine {knob}.")
+
+
+@partial(jax.jit, static_argnames="substeps")
+def _advance(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, dt: jnp.ndarray,
+             params: jnp.ndarray, mu: jnp.ndarray, substeps: int) -> tuple[jnp.ndarray, jnp.ndarray]:
+    x1 = integrate(contour, x, u, dt, params, mu, substeps)
+    return x1, contact_gap(contour, x1)
+
+
+class ModelPlant:
+    """The C-GVMM as the world, with true parameters (docs/conventions.md#plants "model plant").
+
+    Args:
+        shape: the pushed object.
+        params: true λ = [β, x_bf, y_bf]; default the paper's λ_true = [25, −0.01, 0.02].
+        mu: true pusher–object friction μ_c.
+        substeps: Euler substeps per ``step`` call (≥ 10, docs/conventions.md#plants).
+    """
+
+    def __init__(self, shape: Shape, params: object = LAMBDA_TRUE, mu: float = 0.3,
+                 substeps: int = 10) -> None:
+        if substeps < 10:
+            raise ValueError(f"substeps must be >= 10 (docs/conventions.md#plants), got {substeps}")
+        if not (np.isfinite(mu) and mu > 0):
+            raise ValueError(f"mu must be > 0, got {mu!r}")
+        self.shape = shape
+        self.contour = Contour.of(shape)
+        self.params = checked_vector("params", params, 3)
+        check_params(self.params)
+        self.mu = float(mu)
+        self.substeps = int(substeps)
+        self._x: jnp.ndarray | None = None
+        self.time = 0.0
+        self.max_penetration = 0.0  # deepest pusher penetration seen at the end of a step (m)
+
+    @property
+    def state(self) -> np.ndarray:
+        """The true state(s) [x_b, y_b, θ, x_c, y_c] (the controller should not read this)."""
+        if self._x is None:
+            raise RuntimeError("call reset() before using the plant")
+        return np.asarray(self._x, dtype=np.float64)
+
+    def observe(self) -> Observation:
+        x = self.state
+        return Observation(x[..., :3], x[..., 3:], self.time)
+
+    def reset(self, object_pose: object, pusher_xy: object) -> Observation:
+        """Place the object and the pusher; the pusher must not start inside the object."""
+        q = checked_vector("object_pose", object_pose, 3, batch=True)
+        p = checked_vector("pusher_xy", pusher_xy, 2, batch=True)
+        if q.shape[:-1] != p.shape[:-1]:
+            raise ValueError(f"object_pose {q.shape} and pusher_xy {p.shape} batch shapes differ")
+        x = jnp.asarray(np.concatenate([q, p], -1))
+        gap = np.asarray(contact_gap(self.contour, x))
+        if np.any(gap < -1e-3):
+            raise ValueError(
+                f"pusher starts {-gap.min() * 1000:.1f} mm inside the object; place it on or "
+                "outside the pusher-inflated contour")
+        self._x = x
+        self.time = 0.0
+        self.max_penetration = 0.0
+        return self.observe()
+
+    def step(self, velocity: object, dt: float = 0.04) -> Observation:
+        """Hold the pusher velocity (m/s, world frame) for ``dt`` seconds; return the observation."""
+        if self._x is None:
+            raise RuntimeError("call reset() before step()")
+        v = checked_vector("velocity", velocity, 2, batch=True)
+        if v.shape[:-1] not in ((), self._x.shape[:-1]):
+            raise ValueError(f"velocity batch shape {v.shape[:-1]} does not match the plant's "
+                             f"{self._x.shape[:-1]}")
+        dt = check_positive("dt", dt, "s")
+        _check_no_tunnelling(v, dt / self.substeps, self.shape.pusher_radius, "substeps")
+        dtype = self._x.dtype
+        u = jnp.broadcast_to(jnp.asarray(v, dtype), (*self._x.shape[:-1], 2))
+        self._x, gap = _advance(self.contour, self._x, u, jnp.asarray(dt, dtype),
+                                jnp.asarray(self.params, dtype), jnp.asarray(self.mu, dtype),
+                                self.substeps)
+        self.max_penetration = max(self.max_penetration, float(-np.min(gap)))
+        self.time += dt
+        return self.observe()
+
+
+# ---------------------------------------------------------------------------- physics plant
+#: support-pressure patterns of the physics slider (:class:`PhysicsSettings`)
+PRESSURES = ("uniform", "ring", "corners")
+
+
+@dataclass(frozen=True)
+class PhysicsSettings:
+    """The MuJoCo scene of :class:`PhysicsPlant` (docs/conventions.md#plants), with the reason for each value."""
+
+    mass: float = 0.5                 #: slider mass (kg)
+    height: float = 0.02              #: slider height (m); the pusher touches its side at half height
+    table_friction: float = 0.4       #: slider–table Coulomb friction
+    pusher_friction: float = 0.25     #: pusher–slider Coulomb friction (μ_c of the world)
+    timestep: float = 0.002           #: physics step (s): 0.2 mm of pusher travel at 0.1 m/s
+    support_spacing: float = 0.01     #: grid of support points under the footprint (m): a uniform
+                                      #: pressure distribution, whatever the shape (see PhysicsPlant)
+    support_radius: float = 0.002     #: radius of each support sphere (m)
+    solref: tuple[float, float] = (0.004, 1.0)   #: contact time constant 2·timestep, critically damped
+    impratio: float = 10.0            #: stiffer frictional constraints: less creep at rest
+    #: where the weight rests (:data:`PRESSURES`): ``uniform`` (the support grid under the whole
+    #: footprint), ``ring`` (only within ``pressure_band`` of the outline) or ``corners`` (only
+    #: within ``pressure_band`` of the footprint's convex-hull vertices)
+    pressure: str = "uniform"
+    pressure_band: float = 0.02       #: width (m) of the ring, radius (m) of each corner patch
+    pusher_radius_scale: float = 1.0  #: the world's pusher radius over the shape's (the controller assumes 1)
+
+    def __post_init__(self) -> None:
+        for name in ("mass", "height", "table_friction", "pusher_friction", "timestep", "support_spacing",
+                     "support_radius", "impratio", "pressure_band", "pusher_radius_scale"):
+            check_positive(name, getattr(self, name))
+        if self.pressure not in PRESSURES:
+            raise ValueError(f"unknown pressure {self.pressure!r}; choose one of {', '.join(PRESSURES)}")
+
+    @staticmethod
+    def randomized(seed: int) -> PhysicsSettings:
+        """World ``seed`` of the randomised family (``dexpush bench --plant physics --randomize``).
+
+        Table and pusher friction uniform in [0.15, 0.5], pressure uniform / ring / corners with
+        equal odds, mass uniform in [0.2, 2] kg, pusher radius × [0.8, 1.2]. Drawn from
+        ``numpy.random.default_rng((seed, 7))``, so a world never shares its draws with the trial's start.
+        """
+        rng = np.random.default_rng((int(seed), 7))
+        return PhysicsSettings(mass=float(rng.uniform(0.2, 2.0)), table_friction=float(rng.uniform(0.15, 0.5)),
+                               pusher_friction=float(rng.uniform(0.15, 0.5)),
+                               pressure=PRESSURES[int(rng.integers(len(PRESSURES)))],
+                               pusher_radius_scale=float(rng.uniform(0.8, 1.2)))
+
+
+def _support_points(shape: Shape, spacing: float, pressure: str = "uniform", band: float = 0.02) -> np.ndarray:
+    """Grid points inside the footprint (body frame), at least one per polygon; for a ``ring`` or
+    ``corners`` pressure only those within ``band`` of the outline or of a convex-hull vertex."""
+    from matplotlib.path import Path as MplPath
+
+    pts = []
+    for poly in shape.polygons:
+        lo, hi = poly.min(0), poly.max(0)
+        nx, ny = (np.maximum(np.round((hi - lo) / spacing), 1)).astype(int)
+        gx = lo[0] + (np.arange(nx) + 0.5) * (hi[0] - lo[0]) / nx
+        gy = lo[1] + (np.arange(ny) + 0.5) * (hi[1] - lo[1]) / ny
+        grid = np.stack(np.meshgrid(gx, gy), -1).reshape(-1, 2)
+        inside = grid[MplPath(poly).contains_points(grid)]
+        pts.append(inside if len(inside) else poly.mean(0)[None])
+    pts = np.concatenate(pts)
+    # pieces of a union may overlap: keep one point per grid cell
+    pts = np.unique(np.round(pts / (spacing / 4)) * (spacing / 4), axis=0)
+    if pressure == "uniform":
+        return pts
+    if pressure == "ring":   # some point within ``band`` lies outside the footprint
+        ang = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
+        probes = pts[:, None] + band * np.stack([np.cos(ang), np.sin(ang)], -1)[None]
+        keep = np.any(distance_to_polygons(probes, shape.polygons) > 0, axis=1)
+    else:
+        hull = convex_hull(np.concatenate(shape.polygons))
+        keep = np.min(np.linalg.norm(pts[:, None] - hull[None], axis=-1), 1) <= band
+    return pts[keep] if keep.sum() >= 3 else pts
+
+
+def _inertia(points: np.ndarray, mass: float, height: float) -> tuple[np.ndarray, np.ndarray]:
+    """Centre of mass and diagonal inertia of a uniform prism sampled by its support points."""
+    com = points.mean(0)
+    d = points - com
+    izz = mass * np.mean(np.sum(d * d, 1))
+    ixx = mass * (np.mean(d[:, 1] ** 2) + height**2 / 12)
+    iyy = mass * (np.mean(d[:, 0] ** 2) + height**2 / 12)
+    return com, np.array([ixx, iyy, izz])
+
+
+#: the pusher body's mass (kg): heavy, so a contact impulse changes its velocity by < 0.1 mm/s a step
+PUSHER_MASS = 100.0
+
+#: the most convex prisms a slider may be built from (each is a MuJoCo mesh the pusher is tested against)
+MAX_PRISMS = 64
+
+
+def convex_prisms(shape: Shape) -> list[np.ndarray]:
+    """The footprint as convex pieces for MuJoCo, which collides meshes by their convex hulls.
+
+    Convex polygons are kept whole; a non-convex one is split (:func:`dexpush.model.polygons.convex_pieces`),
+    never replaced by its hull. A footprint needing more than :data:`MAX_PRISMS` pieces is refused.
+    """
+    pieces = [piece for poly in shape.polygons for piece in convex_pieces(poly)]
+    if len(pieces) > MAX_PRISMS:
+        raise ValueError(f"the physics plant would build {shape.name!r} from {len(pieces)} convex prisms (at most "
+                         f"{MAX_PRISMS}): its outline is too ragged to simulate faithfully; simplify the polygon(s)")
+    return pieces
+
+
+def scene_xml(shape: Shape, settings: PhysicsSettings) -> str:
+    """MJCF of table, slider and pusher, built from the shape (convex prisms, :func:`convex_prisms`).
+
+    Contact groups (contype/conaffinity bits) keep the three kinds of contact apart: the
+    table touches only the slider's support spheres (friction ``table_friction``), the
+    pusher touches only the slider's side prisms (``pusher_friction``), and nothing else
+    collides. The support spheres spread the slider's weight evenly over its footprint, so
+    the friction load follows the footprint (a box on a plane would carry it on 4 corners).
+    The slider has a free joint: locking roll and pitch would let the table's normal forces
+    absorb the tipping moment unevenly and distort that pressure distribution.
+    """
+    s = settings
+    h = s.height
+    points = _support_points(shape, s.support_spacing, s.pressure, s.pressure_band)
+    com, inertia = _inertia(points, s.mass, h)
+    meshes, sides = [], []
+    for i, poly in enumerate(convex_prisms(shape)):
+        verts = " ".join(f"{x:.6f} {y:.6f} {z:.6f}" for z in (-h / 2, h / 2) for x, y in poly)
+        meshes.append(f'<mesh name="piece{i}" vertex="{verts}"/>')
+        sides.append(f'<geom type="mesh" mesh="piece{i}" pos="0 0 {h / 2 + s.support_radius:.6f}" contype="4" '
+                     f'conaffinity="8" friction="{s.pusher_friction} 0.005 0.0001" rgba="0.6 0.6 0.65 1" '
+                     f'mass="0"/>')
+    supports = [f'<geom type="sphere" size="{s.support_radius}" pos="{x:.6f} {y:.6f} {s.support_radius:.6f}" '
+                f'contype="2" conaffinity="1" friction="{s.table_friction} 0.005 0.0001" mass="0" '
+                f'rgba="0.3 0.3 0.3 1"/>' for x, y in points]
+    rho = shape.pusher_radius * s.pusher_radius_scale
+    solref = f"{s.solref[0]} {s.solref[1]}"
+    return f"""<mujoco model="dexpush">
+  <option timestep="{s.timestep}" integrator="implicitfast" cone="elliptic" impratio="{s.impratio}"/>
+  <default><geom solref="{solref}" solimp="0.95 0.99 0.001"/></default>
+  <asset>{''.join(meshes)}</asset>
+  <worldbody>
+    <geom name="table" type="plane" size="2 2 0.1" contype="1" conaffinity="2"
+          friction="{s.table_friction} 0.005 0.0001" rgba="0.9 0.9 0.9 1"/>
+    <body name="slider" pos="0 0 0">
+      <freejoint name="slider"/>
+      <inertial pos="{com[0]:.6f} {com[1]:.6f} {h / 2 + s.support_radius:.6f}" mass="{s.mass}"
+                diaginertia="{inertia[0]:.8f} {inertia[1]:.8f} {inertia[2]:.8f}"/>
+      {''.join(sides)}
+      {''.join(supports)}
+    </body>
+    <body name="pusher" pos="0 0 {h / 2 + s.support_radius:.6f}">
+      <joint name="pusher_x" type="slide" axis="1 0 0"/>
+      <joint name="pusher_y" type="slide" axis="0 1 0"/>
+      <geom type="cylinder" size="{rho} {h}" contype="8" conaffinity="4" mass="{PUSHER_MASS}"
+            friction="{s.pusher_friction} 0.005 0.0001" rgba="0.1 0.7 0.8 1"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+
+
+class PhysicsPlant:
+    """A MuJoCo world standing in for the real robot (docs/conventions.md#plants "physics plant").
+
+    The slider is a rigid body on a table with Coulomb friction, pushed by a kinematic
+    cylinder that follows the commanded velocity exactly, as a stiff position-controlled
+    robot arm would (a heavy body on two slide joints whose position and velocity are set
+    every physics step, so its contact friction acts on its sliding). Nothing here uses the C-GVMM: the motion comes
+    from MuJoCo's contact dynamics, so the controller meets a world that is not its model.
+    Same interface as :class:`ModelPlant` (one scene, not a batch).
+
+    Args:
+        shape: the slider's footprint (split into convex prisms, :func:`convex_prisms`).
+        settings: :class:`PhysicsSettings`.
+    """
+
+    def __init__(self, shape: Shape, settings: PhysicsSettings | None = None) -> None:
+        import mujoco
+
+        self._mj = mujoco
+        self.shape = shape
+        self.settings = settings or PhysicsSettings()
+        self.model = mujoco.MjModel.from_xml_string(scene_xml(shape, self.settings))
+        self.data = mujoco.MjData(self.model)
+        self._qadr = self.model.jnt_qposadr[self.model.joint("slider").id]
+        self._pq = [self.model.jnt_qposadr[self.model.joint(n).id] for n in ("pusher_x", "pusher_y")]
+        self._pv = [self.model.jnt_dofadr[self.model.joint(n).id] for n in ("pusher_x", "pusher_y")]
+        self._z = self.settings.height / 2 + self.settings.support_radius
+        self.time = 0.0
+        self._ready = False
+        self.max_penetration = 0.0
+
+    @property
+    def state(self) -> np.ndarray:
+        """The true [x_b, y_b, θ, x_c, y_c] (the controller should not read this)."""
+        if not self._ready:
+            raise RuntimeError("call reset() before using the plant")
+        q = self.data.qpos[self._qadr:self._qadr + 7]
+        w, x, y, z = q[3:7]
+        theta = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        return np.array([q[0], q[1], theta, *self.data.qpos[self._pq]])
+
+    def observe(self) -> Observation:
+        x = self.state
+        return Observation(x[:3], x[3:], self.time)
+
+    def reset(self, object_pose: object, pusher_xy: object) -> Observation:
+        """Place the slider (at rest) and the pusher; the pusher must not start inside it."""
+        q = checked_vector("object_pose", object_pose, 3)
+        p = checked_vector("pusher_xy", pusher_xy, 2)
+        contour = Contour.of(self.shape)
+        if float(contact_gap(contour, jnp.asarray(np.concatenate([q, p])))) < -1e-3:
+            raise ValueError("pusher starts inside the object; place it on or outside the pusher-inflated contour")
+        mj = self._mj
+        mj.mj_resetData(self.model, self.data)
+        self.data.qpos[self._qadr:self._qadr + 7] = [q[0], q[1], 0.0, np.cos(q[2] / 2), 0, 0, np.sin(q[2] / 2)]
+        self.data.qpos[self._pq] = p
+        mj.mj_forward(self.model, self.data)
+        self.time = self._target = 0.0
+        self._steps = 0
+        self.max_penetration = 0.0
+        self._ready = True
+        return self.observe()
+
+    def step(self, velocity: object, dt: float = 0.04) -> Observation:
+        """Move the pusher at ``velocity`` (m/s, world frame) for ``dt`` seconds of physics."""
+        if not self._ready:
+            raise RuntimeError("call reset() before step()")
+        v = checked_vector("velocity", velocity, 2)
+        dt = check_positive("dt", dt, "s")
+        h = self.model.opt.timestep
+        _check_no_tunnelling(v, h, self.shape.pusher_radius, "settings.timestep")
+        self._target += dt          # whole physics steps, rounded on the running total: no drift
+        n = round(self._target / h) - self._steps
+        for _ in range(n):
+            # the pusher is kinematic: it starts each physics step where the command put it, with the
+            # commanded velocity, which the contact solver sees (a teleported mocap body has none, so its
+            # friction could not act on its own sliding); the step's end is then set exactly
+            target = self.data.qpos[self._pq] + v * h
+            self.data.qvel[self._pv] = v
+            self._mj.mj_step(self.model, self.data)
+            self.data.qpos[self._pq] = target
+            if self.data.ncon:
+                self.max_penetration = max(self.max_penetration, float(-self.data.contact.dist.min()))
+        self._steps += n
+        self.time = self._steps * h
+        return self.observe()

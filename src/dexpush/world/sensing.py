@@ -1,0 +1,147 @@
+"""Realistic sensing on any plant: pose noise, a camera rate, latency and dropped frames (docs/conventions.md#plants).
+
+:class:`Camera` wraps any :class:`dexpush.common.interfaces.Plant` (the model plant, the MuJoCo
+plant, your own). The control loop still calls ``step(velocity, dt)``
+every control period, but gets back a :class:`Frame` only when a camera frame *arrives*
+in that period (a :class:`dexpush.common.interfaces.Frame`), otherwise ``None``:
+
+* frames are captured every 1/``rate_hz`` seconds (``None``: at the end of every control
+  period), by splitting the plant's step at the capture instants;
+* each capture is lost with probability ``drop_prob``;
+* a frame arrives ``latency_s`` after its capture; ``Frame.time`` is the capture time, so
+  the controller can predict forward over the delay;
+* the object pose gets Gaussian noise (``pos_std_m`` on x and y, ``heading_std_rad`` on θ),
+  the pusher position ``pusher_std_m`` (a robot knows its own tip well: default 0).
+
+If several frames arrive within one control period only the newest is returned: a
+controller acts on the latest information. Everything is seeded: equal seeds give equal
+noise and drops.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from dexpush.common.checks import check_nonnegative, check_positive, checked_vector
+from dexpush.common.interfaces import Frame, Plant, check_plant
+
+__all__ = ["Camera", "SensorSettings"]
+
+@dataclass(frozen=True)
+class SensorSettings:
+    """How the world is observed. The defaults are a perfect sensor at the control rate."""
+
+    pos_std_m: float = 0.0            #: object position noise (m), e.g. 1e-3
+    heading_std_rad: float = 0.0      #: object heading noise (rad), e.g. 0.5° = 0.0087
+    pusher_std_m: float = 0.0         #: pusher position noise (m)
+    rate_hz: float | None = None      #: camera rate; None: one frame per control period
+    latency_s: float = 0.0            #: capture-to-arrival delay (s), e.g. 0.06
+    drop_prob: float = 0.0            #: probability that a frame is lost
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("pos_std_m", "heading_std_rad", "pusher_std_m", "latency_s", "drop_prob"):
+            check_nonnegative(name, getattr(self, name))
+        if self.rate_hz is not None:
+            check_positive("rate_hz", self.rate_hz, "Hz, or None for one frame per control period")
+        if not 0.0 <= self.drop_prob < 1.0:
+            raise ValueError(f"drop_prob must be in [0, 1), got {self.drop_prob!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer) or self.seed < 0:
+            raise ValueError(f"seed must be a whole number >= 0, got {self.seed!r}")
+
+    @staticmethod
+    def realistic(seed: int = 0) -> SensorSettings:
+        """A camera as in docs/conventions.md#plants / issue 6: 15 Hz, 1 mm and 0.5° noise, 60 ms latency, 5 % drops."""
+        return SensorSettings(1e-3, float(np.radians(0.5)), 0.0, 15.0, 0.06, 0.05, seed)
+
+    @staticmethod
+    def randomized(seed: int) -> SensorSettings:
+        """Camera ``seed`` of the randomised worlds (``--randomize``): object noise 0.5–2 mm and
+        0.25–1°, pusher noise 0–0.5 mm, 10, 15 or 30 Hz, latency 30–100 ms, 0–10 % drops, each
+        uniform, from ``numpy.random.default_rng((seed, 11))``."""
+        rng = np.random.default_rng((int(seed), 11))
+        return SensorSettings(float(rng.uniform(0.5e-3, 2e-3)), float(np.radians(rng.uniform(0.25, 1.0))),
+                              float(rng.uniform(0.0, 0.5e-3)), float(rng.choice([10.0, 15.0, 30.0])),
+                              float(rng.uniform(0.03, 0.10)), float(rng.uniform(0.0, 0.10)), int(seed))
+
+    @property
+    def perfect(self) -> bool:
+        return (self.pos_std_m == self.heading_std_rad == self.pusher_std_m == self.latency_s == self.drop_prob == 0
+                and self.rate_hz is None)
+
+
+class Camera:
+    """A plant seen through a sensor (see the module docstring).
+
+    Args:
+        plant: any :class:`dexpush.common.interfaces.Plant` (``reset``, ``step``, ``observe``, ``state``).
+        settings: :class:`SensorSettings`.
+    """
+
+    def __init__(self, plant: Plant, settings: SensorSettings | None = None) -> None:
+        self.plant = check_plant(plant)
+        if settings is not None and not isinstance(settings, SensorSettings):
+            raise ValueError(f"settings must be a SensorSettings, got {settings!r}")
+        self.settings = settings or SensorSettings()
+        self._rng = np.random.default_rng(self.settings.seed)
+        self._pending: deque[tuple[float, Frame]] = deque()
+        self._next_capture = 0.0
+        self.time = 0.0
+        self.captured = self.dropped = self.delivered = 0
+
+    def _capture(self) -> None:
+        s = self.settings
+        self.captured += 1
+        if self._rng.random() < s.drop_prob:
+            self.dropped += 1
+            return
+        obs = self.plant.observe()
+        noise = self._rng.normal(size=5) * [s.pos_std_m, s.pos_std_m, s.heading_std_rad, s.pusher_std_m,
+                                            s.pusher_std_m]
+        frame = Frame(obs.object_pose + noise[:3], obs.pusher_xy + noise[3:], self.time)
+        self._pending.append((self.time + s.latency_s, frame))
+
+    def reset(self, object_pose: object, pusher_xy: object) -> Frame:
+        """Reset the plant; the first frame (time 0) is returned at once, so a run can start."""
+        self.plant.reset(object_pose, pusher_xy)
+        self._rng = np.random.default_rng(self.settings.seed)
+        self._pending.clear()
+        self.time = 0.0
+        self.captured = self.dropped = self.delivered = 0
+        s = self.settings
+        noise = self._rng.normal(size=5) * [s.pos_std_m, s.pos_std_m, s.heading_std_rad, s.pusher_std_m,
+                                            s.pusher_std_m]
+        obs = self.plant.observe()
+        self._next_capture = 1.0 / s.rate_hz if s.rate_hz else np.inf
+        return Frame(obs.object_pose + noise[:3], obs.pusher_xy + noise[3:], 0.0)
+
+    def step(self, velocity: object, dt: float = 0.04) -> Frame | None:
+        """Advance the plant by ``dt`` under ``velocity``; the newest frame that arrived, or None."""
+        v = checked_vector("velocity", velocity, 2)
+        dt = check_positive("dt", dt, "s")
+        end = self.time + dt
+        while self._next_capture <= end + 1e-9:                # captures inside this period
+            if self._next_capture > self.time + 1e-9:
+                self.plant.step(v, self._next_capture - self.time)
+                self.time = self._next_capture
+            self._capture()
+            self._next_capture += 1.0 / self.settings.rate_hz
+        if end > self.time + 1e-9:
+            self.plant.step(v, end - self.time)
+        self.time = end
+        if self.settings.rate_hz is None:
+            self._capture()
+        newest = None
+        while self._pending and self._pending[0][0] <= self.time + 1e-9:
+            newest = self._pending.popleft()[1]
+        if newest is not None:
+            self.delivered += 1
+        return newest
+
+    @property
+    def state(self) -> np.ndarray:
+        """The plant's true state (for evaluation only; a controller must not read it)."""
+        return self.plant.state
