@@ -25,7 +25,7 @@ from dexpush import Shape
 from dexpush.control.controller import ControllerSettings, plan_step, policy_init
 from dexpush.control.mppi import MPPISettings
 from dexpush.model.cgvmm import LAMBDA_TRUE, Contour
-from dexpush.problem.cost import Scene
+from dexpush.problem.scene import Scene
 
 
 def timing_args(doc: str | None) -> argparse.Namespace:

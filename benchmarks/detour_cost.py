@@ -23,7 +23,8 @@ from dexpush.control.controller import ControllerSettings
 from dexpush.control.mppi import MPPISettings
 from dexpush.experiments.scenarios import get_task
 from dexpush.model.cgvmm import Contour
-from dexpush.problem.cost import CostWeights, Scene
+from dexpush.problem.scene import Scene
+from dexpush.problem.weights import CostWeights
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from corner_cost import print_ms_table, time_plan_steps, timing_args  # a sibling script

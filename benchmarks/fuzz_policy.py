@@ -27,7 +27,7 @@ from dexpush.control.controller import ControllerSettings, policy_init, policy_s
 from dexpush.control.mppi import MPPISettings
 from dexpush.experiments.registry import make_shape
 from dexpush.model.cgvmm import Contour
-from dexpush.problem.cost import Scene
+from dexpush.problem.scene import Scene
 from dexpush.world.plants import ModelPlant
 
 

@@ -33,7 +33,7 @@ from dexpush import Shape
 from dexpush.control.controller import ControllerSettings, plan_step, policy_init
 from dexpush.control.mppi import MPPISettings
 from dexpush.model.cgvmm import LAMBDA_TRUE, Contour
-from dexpush.problem.cost import Scene
+from dexpush.problem.scene import Scene
 
 TARGET_MS = 1.0   # SPEC §7: median ≤ 1.0 ms at K = 1024 on 2 cores
 

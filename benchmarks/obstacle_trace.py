@@ -6,7 +6,7 @@
 One Task III trial (MPPI + UKF, unknown λ, the realistic camera) through
 ``PushingController.act``. After each command it prints, for the last ``--steps`` control steps:
 
-* ``true``: the clearance (mm, :func:`dexpush.problem.cost.clearance`) of the plant's true state;
+* ``true``: the clearance (mm, :func:`dexpush.problem.obstacles.clearance`) of the plant's true state;
 * ``seen``: the clearance of the state the controller planned from (``planning_state``: the
   newest frame predicted to the present through the model);
 * ``plan``: the clearance the new nominal sequence predicts after 1, 2 and 3 slots, and the least
@@ -28,11 +28,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.control.controller import ControllerSettings
-from dexpush.experiments.registry import PARAMS, make_controller, make_plant, make_shape, world_sensor
+from dexpush.experiments.methods import get_method
+from dexpush.experiments.registry import PARAMS, make_plant, make_shape, world_sensor
 from dexpush.experiments.runner import run_loop
 from dexpush.experiments.scenarios import get_task, initial_conditions
 from dexpush.model.cgvmm import Contour, integrate
-from dexpush.problem.cost import CostWeights, Scene, clearance
+from dexpush.problem.obstacles import clearance
+from dexpush.problem.weights import CostWeights
 from dexpush.world.sensing import SensorSettings
 
 
@@ -54,8 +56,9 @@ def main() -> None:
     settings = ControllerSettings(weights=weights)
     sensor = SensorSettings.realistic()
     sensor = world_sensor(args.plant, replace(sensor, seed=sensor.seed * 1_000_003 + args.seed), args.seed)
-    ctrl = make_controller("mppi-ukf", shape, task, PARAMS["unknown"], args.seed, settings)
-    scene = Scene.make(shape, task.goal, task.obstacles)
+    problem = task.problem(shape, settings.weights)
+    scene = problem.scene
+    ctrl = get_method("mppi-ukf").controller(problem, PARAMS["unknown"], args.seed, settings)
     contour, slots = Contour.of(shape), settings.mppi.step_durations()
 
     @jax.jit
@@ -83,7 +86,7 @@ def main() -> None:
 
     pose, pusher = initial_conditions(task, shape, args.seed)
     plant = make_plant(args.plant, shape, args.seed)
-    result = run_loop(plant, Traced(), task, shape, pose, pusher, sensor=sensor,
+    result = run_loop(plant, Traced(), problem, pose, pusher, sensor=sensor,
                       control_period=settings.mppi.control_period)
     true = np.asarray(jax.jit(clearance)(jnp.asarray(result.states, jnp.float32), scene)) * 1e3
     print(f"# Task III, {args.shape}, {args.plant}, seed {args.seed}, C_margin {weights.C_margin}: "

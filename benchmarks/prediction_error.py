@@ -30,7 +30,8 @@ import numpy as np
 from dexpush.cli.arguments import seed_list
 from dexpush.common.se2 import footprint_shift
 from dexpush.control.controller import ControllerSettings
-from dexpush.experiments.registry import PARAMS, make_controller, make_plant, make_shape, world_sensor
+from dexpush.experiments.methods import get_method
+from dexpush.experiments.registry import PARAMS, make_plant, make_shape, world_sensor
 from dexpush.experiments.runner import run_loop
 from dexpush.experiments.scenarios import get_task, initial_conditions
 from dexpush.world.sensing import SensorSettings
@@ -68,10 +69,11 @@ def main() -> None:
     for seed in args.seeds:
         sensor = SensorSettings.realistic()
         sensor = world_sensor("physics", replace(sensor, seed=sensor.seed * 1_000_003 + seed), seed)
-        ctrl = make_controller("mppi-ukf", shape, task, PARAMS["unknown"], seed, settings)
+        problem = task.problem(shape, settings.weights)
+        ctrl = get_method("mppi-ukf").controller(problem, PARAMS["unknown"], seed, settings)
         traced = Traced(ctrl)
         pose, pusher = initial_conditions(task, shape, seed)
-        result = run_loop(make_plant("physics", shape, seed), traced, task, shape, pose, pusher, sensor=sensor,
+        result = run_loop(make_plant("physics", shape, seed), traced, problem, pose, pusher, sensor=sensor,
                           control_period=settings.mppi.control_period)
         states = np.asarray(result.states)
         shifts += [s for _, s in traced.rows]

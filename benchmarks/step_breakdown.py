@@ -32,7 +32,7 @@ from dexpush.control.mppi import MPPISettings
 from dexpush.experiments.registry import make_shape
 from dexpush.experiments.scenarios import get_task, initial_conditions
 from dexpush.model.cgvmm import LAMBDA_TRUE, Contour, integrate
-from dexpush.problem.cost import Scene
+from dexpush.problem.scene import Scene
 
 
 def median_ms(fn, repeats: int) -> float:

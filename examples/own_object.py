@@ -37,7 +37,7 @@ def main() -> None:
     plant = ModelPlant(shape, params=(30.0, 0.01, 0.01))          # the world's true λ = [β, x_bf, y_bf]
     task = Task("L", "push the L", goal=(0.05, 0.02, np.radians(20.0)))
     controller = dexpush.PushingController(shape, task.goal, params=(20.0, 0.0, 0.0))   # our guess of λ
-    result = dexpush.run_loop(plant, controller, task, shape, object_pose=(0.0, 0.0, 0.0),
+    result = dexpush.run_loop(plant, controller, task.problem(shape), object_pose=(0.0, 0.0, 0.0),
                               pusher_xy=(-0.08, 0.0), max_steps=args.max_steps)
 
     modes = np.asarray(dexpush.contact_solution(shape, result.states[:-1], result.commands, plant.params).mode)

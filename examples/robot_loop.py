@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 import dexpush
-from dexpush.experiments.scenarios import is_success
+from dexpush.problem.problem import is_success
 from dexpush.world.plants import ModelPlant, PhysicsPlant
 from dexpush.world.sensing import Camera
 

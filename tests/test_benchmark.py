@@ -19,7 +19,7 @@ from dexpush.control.mppi import MPPISettings
 from dexpush.experiments.benchmark import run_benchmark
 from dexpush.experiments.records import summarize
 from dexpush.experiments.tables import write_tables
-from dexpush.problem.cost import CostWeights
+from dexpush.problem.weights import CostWeights
 from dexpush.world.sensing import SensorSettings
 
 
@@ -235,12 +235,13 @@ def test_records_label_a_trajectory_in_blocks_as_they_would_unpadded() -> None:
     touches it records are those of the trajectory itself."""
     import jax.numpy as jnp
 
-    from dexpush.experiments.records import LABEL_BLOCK, make_episode
+    from dexpush.experiments.records import LABEL_BLOCK, Condition, make_episode
     from dexpush.experiments.registry import make_shape
     from dexpush.experiments.scenarios import get_task
     from dexpush.experiments.simulate import TrialResult, TrialSpec
     from dexpush.model.cgvmm import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
-    from dexpush.problem.cost import Scene, collides
+    from dexpush.problem.obstacles import collides
+    from dexpush.problem.scene import Scene
 
     task, shape = get_task("III"), make_shape("rect")
     rng = np.random.default_rng(3)
@@ -251,8 +252,8 @@ def test_records_label_a_trajectory_in_blocks_as_they_would_unpadded() -> None:
     X[:, 3] = X[:, 0] - 0.06 + 0.01 * np.sin(np.arange(n + 1) / 9)
     X[:, 4] = 0.03 * rng.standard_normal(n + 1)
     U = rng.uniform(-0.05, 0.1, (n, 2))
-    ep = make_episode(task, "rect", shape, "known", "mppi", TrialResult(TrialSpec(0), False, X, U, np.zeros((n, 3)),
-                                                                       np.ones(n)), 16)
+    ep = make_episode(task.problem(shape), Condition(task.key, "rect", "known", "mppi"),
+                      TrialResult(TrialSpec(0), False, X, U, np.zeros((n, 3)), np.ones(n)), 16)
     modes = np.asarray(contact_solution(Contour.of(shape), X[:-1], U, LAMBDA_TRUE).mode)
     hits = np.asarray(collides(jnp.asarray(X[1:], jnp.float32), Scene.make(shape, task.goal, task.obstacles)))
     np.testing.assert_array_equal(ep.modes, modes)
@@ -261,16 +262,16 @@ def test_records_label_a_trajectory_in_blocks_as_they_would_unpadded() -> None:
     assert ep.record.collisions == int(hits.sum()) > 0
     # the record's clearance is the trajectory's smallest gap: below zero, since it touches
     from dexpush.experiments.records import summarize
-    from dexpush.problem.cost import clearance
+    from dexpush.problem.obstacles import clearance
     gaps = np.asarray(clearance(jnp.asarray(X[1:], jnp.float32), Scene.make(shape, task.goal, task.obstacles)))
     assert ep.record.clearance_m == pytest.approx(float(gaps.min()), abs=1e-5) and ep.record.clearance_m < 0
-    clear = make_episode(task, "rect", shape, "known", "mppi", TrialResult(TrialSpec(1), False, X[:40], U[:39],
-                                                                          np.zeros((39, 3)), np.ones(39)), 16)
+    clear = make_episode(task.problem(shape), Condition(task.key, "rect", "known", "mppi"),
+                         TrialResult(TrialSpec(1), False, X[:40], U[:39], np.zeros((39, 3)), np.ones(39)), 16)
     assert clear.record.clearance_m > 0
     assert summarize([ep.summary(), clear.summary()])["clearance_m"] == pytest.approx(
         [ep.record.clearance_m, 0.5 * (ep.record.clearance_m + clear.record.clearance_m)], abs=1e-5)
     result = TrialResult(TrialSpec(0), False, X, U, np.zeros((n, 3)), np.ones(n))
-    no_obstacle = make_episode(get_task("I"), "rect", shape, "known", "mppi", result, 16)
+    no_obstacle = make_episode(get_task("I").problem(shape), Condition("I", "rect", "known", "mppi"), result, 16)
     assert no_obstacle.record.clearance_m is None and summarize([no_obstacle.summary()])["clearance_m"] is None
 
 

@@ -14,7 +14,9 @@ from hypothesis import settings as hypothesis_settings
 from hypothesis import strategies as st
 
 from dexpush import Shape
-from dexpush.problem.cost import CostWeights, Scene, detour_length_sq, running_cost, terminal_cost
+from dexpush.problem.cost import detour_length_sq, running_cost, terminal_cost
+from dexpush.problem.scene import Scene
+from dexpush.problem.weights import CostWeights
 
 
 def _segment_clear(p: np.ndarray, q: np.ndarray, o: np.ndarray, rho: float) -> bool:
@@ -152,7 +154,7 @@ def _clearance_reference(shape: Shape, x: np.ndarray, disc: np.ndarray) -> float
 @given(st.floats(-0.35, 0.35), st.floats(-0.35, 0.35), st.floats(-np.pi, np.pi), st.floats(0.01, 0.08),
        st.sampled_from(["rect", "tee"]))
 def test_clearance_matches_a_float64_reference(ox: float, oy: float, th: float, r: float, name: str) -> None:
-    from dexpush.problem.cost import clearance, collides
+    from dexpush.problem.obstacles import clearance, collides
 
     shape = Shape.tee() if name == "tee" else Shape.rectangle()
     x = np.array([0.01, -0.02, th, 0.15 * np.cos(3 * th), 0.15 * np.sin(3 * th)])
@@ -166,7 +168,7 @@ def test_clearance_matches_a_float64_reference(ox: float, oy: float, th: float, 
 
 
 def test_clearance_is_the_same_wherever_the_scene_is_put() -> None:
-    from dexpush.problem.cost import clearance
+    from dexpush.problem.obstacles import clearance
 
     shape, x, disc = Shape.tee(), np.array([0.05, 0.02, 0.7, -0.2, 0.05]), np.array([0.25, 0.1, 0.05])
     base = float(clearance(jnp.asarray(x), Scene.make(shape, (0.6, 0, 0), (disc,))))
@@ -214,7 +216,7 @@ def least_clearance(contour, scene: Scene, x: jnp.ndarray, sequence: jnp.ndarray
     """The least obstacle clearance of the states a plan (N, 2) predicts from x on its slots (λ_true, μ_c 0.3),
     compiled once (a rollout step by step from Python compiled each integrate anew: ~50 s a test)."""
     from dexpush.model.cgvmm import LAMBDA_TRUE, integrate
-    from dexpush.problem.cost import clearance
+    from dexpush.problem.obstacles import clearance
 
     def slot(xs: jnp.ndarray, inp: tuple[jnp.ndarray, jnp.ndarray]):
         xs = integrate(contour, xs, inp[0], inp[1], jnp.asarray(LAMBDA_TRUE, jnp.float32), jnp.float32(0.3), 4)
@@ -253,7 +255,8 @@ def test_from_inside_the_margin_the_plan_never_comes_nearer() -> None:
 
 
 def test_a_plan_from_inside_the_margin_keeps_its_start_clearance_as_margin() -> None:
-    from dexpush.problem.cost import clearance, plan_margin
+    from dexpush.problem.cost import plan_margin
+    from dexpush.problem.obstacles import clearance
 
     shape, w = Shape.rectangle(), CostWeights()
     scene = Scene.make(shape, (0.6, 0, 0), ((0.30, 0.0, 0.05),), w)
@@ -346,7 +349,7 @@ def test_a_plan_from_a_predicted_state_keeps_the_grown_margin() -> None:
 
     from dexpush.control.controller import ControllerSettings, plan_step, policy_init
     from dexpush.model.cgvmm import LAMBDA_TRUE, Contour
-    from dexpush.problem.cost import clearance
+    from dexpush.problem.obstacles import clearance
 
     shape = Shape.rectangle()
     contour = Contour.of(shape)

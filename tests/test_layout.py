@@ -29,13 +29,13 @@ RANK = {name: i for i, layer in enumerate(LAYERS) for name in layer}
 
 #: lowest first, per sub-package: its modules (gcs/ is one unit: its own chain, one door)
 INNER = {
-    "common": [{"fastmath", "se2", "checks", "files", "compile_cache", "xla_options", "interfaces"}],
+    "common": [{"fastmath", "se2", "checks", "files", "compile_cache", "xla_options", "interfaces", "progress"}],
     "model": [{"polygons"}, {"shape", "corner"}, {"cgvmm"}],
-    "problem": [{"cost"}],
+    "problem": [{"weights"}, {"scene"}, {"obstacles"}, {"cost"}, {"problem"}],
     "control": [{"noise", "ukf"}, {"mppi", "proposals", "estimator"}, {"policy"}, {"controller"}],
     "world": [{"plants", "sensing"}],
     "data": [{"fitting"}, {"mit"}, {"logs", "online"}],
-    "experiments": [{"scenarios"}, {"simulate"}, {"registry"}, {"records"}, {"runner"}, {"tables"},
+    "experiments": [{"scenarios"}, {"simulate"}, {"methods"}, {"registry"}, {"records"}, {"runner"}, {"tables"},
                     {"benchmark"}],
     "cli": [{"arguments"}, {"config", "planner_flags"}, {"main"}],
 }

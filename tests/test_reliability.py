@@ -18,7 +18,7 @@ from dexpush.control.controller import ControllerSettings, PushingController, _e
 from dexpush.control.estimator import UKFSettings, estimator_init, estimator_observe
 from dexpush.control.ukf import UKFState
 from dexpush.model.cgvmm import Contour
-from dexpush.problem.cost import Scene
+from dexpush.problem.scene import Scene
 from dexpush.world.plants import ModelPlant
 
 SHAPE = dexpush.Shape.rectangle()
@@ -242,7 +242,7 @@ def test_results_do_not_depend_on_where_the_world_origin_is() -> None:
     for offset in (0.0, 1e4):
         task = dexpush.Task("near", "near", goal=(offset + 0.04, offset, 0.0))
         ctrl = PushingController(SHAPE, task.goal, params=(25.0, -0.01, 0.02), settings=SETTINGS)
-        runs.append(dexpush.run_loop(OffsetPlant(offset), ctrl, task, SHAPE, (offset, offset, 0.0),
+        runs.append(dexpush.run_loop(OffsetPlant(offset), ctrl, task.problem(SHAPE), (offset, offset, 0.0),
                                      (offset - 0.13, offset), max_steps=300))
     a, b = runs
     assert a.success and b.success and len(a.commands) == len(b.commands)

@@ -79,7 +79,7 @@ def test_mppi_pushes_on_a_users_own_plant() -> None:
     plant = EulerPlant(shape)
     task = Task("near", "short push", goal=(0.04, 0.0, 0.0))
     ctrl = PushingController(shape, task.goal, params=(20.0, 0.0, 0.0))
-    res = run_loop(plant, ctrl, task, shape, (0.0, 0.0, 0.0), (-0.14, 0.0), max_steps=200)
+    res = run_loop(plant, ctrl, task.problem(shape), (0.0, 0.0, 0.0), (-0.14, 0.0), max_steps=200)
     assert res.success, res.states[-1]
     assert len(res.states) == len(res.commands) + 1 == plant.steps + 1
     np.testing.assert_allclose(res.params, np.tile([20.0, 0.0, 0.0], (len(res.commands), 1)), rtol=1e-6)
@@ -90,7 +90,7 @@ def test_any_controller_on_any_plant_with_a_camera_and_giving_up() -> None:
     shape = Shape.rectangle()
     ctrl = PushRight(limit=7)
     task = Task("far", "never reached", goal=(1.0, 0.0, 0.0))
-    res = run_loop(ModelPlant(shape), ctrl, task, shape, (0.0, 0.0, 0.0), (-0.2, 0.0),
+    res = run_loop(ModelPlant(shape), ctrl, task.problem(shape), (0.0, 0.0, 0.0), (-0.2, 0.0),
                    sensor=SensorSettings(rate_hz=10.0, latency_s=0.05), max_steps=100)
     assert ctrl.resets == 1 and len(res.commands) == 7 and not res.success     # gave_up ended it
     assert np.all(np.isnan(res.params))                                          # it has no λ
@@ -100,7 +100,7 @@ def test_any_controller_on_any_plant_with_a_camera_and_giving_up() -> None:
 def test_obstacle_contact_ends_the_loop_as_a_failure() -> None:
     shape = Shape.rectangle()
     task = Task("wall", "obstacle ahead", goal=(1.0, 0.0, 0.0), obstacles=((0.2, 0.0, 0.05),))
-    res = run_loop(ModelPlant(shape), PushRight(limit=10_000), task, shape, (0.0, 0.0, 0.0), (-0.2, 0.0),
+    res = run_loop(ModelPlant(shape), PushRight(limit=10_000), task.problem(shape), (0.0, 0.0, 0.0), (-0.2, 0.0),
                    max_steps=400)
     assert not res.success and len(res.commands) < 400
     assert res.states[-1, 0] > 0.02          # the object was pushed into the obstacle
@@ -115,3 +115,14 @@ def test_run_episode_takes_a_plant_object() -> None:
 def test_a_non_plant_is_refused() -> None:
     with pytest.raises(ValueError, match="not a plant"):
         run_episode("I", "rect", plant=object(), max_steps=1)   # type: ignore[arg-type]
+
+
+def test_run_loop_reads_the_older_task_and_shape_form_with_a_deprecation_warning() -> None:
+    shape = Shape.rectangle()
+    task = Task("far", "never reached", goal=(1.0, 0.0, 0.0))
+    with pytest.warns(DeprecationWarning, match="pass a Problem"):
+        old = run_loop(ModelPlant(shape), PushRight(limit=5), task, shape, (0.0, 0.0, 0.0), (-0.2, 0.0))
+    new = run_loop(ModelPlant(shape), PushRight(limit=5), task.problem(shape), (0.0, 0.0, 0.0), (-0.2, 0.0))
+    np.testing.assert_array_equal(old.states, new.states)
+    with pytest.raises(TypeError, match="problem is a dexpush Problem"):
+        run_loop(ModelPlant(shape), PushRight(limit=5), shape, (0.0, 0.0, 0.0), (-0.2, 0.0))

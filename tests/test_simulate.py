@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import pytest
 
@@ -14,12 +16,18 @@ from dexpush.world.plants import ModelPlant
 UNKNOWN = (15.0, 0.0, 0.0)
 
 
+
+def _simulate(task, shape, trials, *args, **kwargs):
+    """simulate() on the task's problem for the shape, from the task's starts."""
+    return simulate(task.problem(shape), trials, *args, starts=partial(task.trial_start, shape), **kwargs)
+
+
 def test_a_trial_does_not_depend_on_its_neighbours_or_its_lane() -> None:
     task, shape = get_task("II"), make_shape("rect")       # lanes=2, chunk 25: the program test_benchmark compiles
     specs = [TrialSpec(s, UNKNOWN, estimate=s % 2 == 0) for s in range(4)]
-    forward = simulate(task, shape, specs, lanes=2, max_steps=30)
-    backward = simulate(task, shape, specs[::-1], lanes=2, max_steps=30)[::-1]
-    alone = simulate(task, shape, [specs[2]], lanes=2, max_steps=30)[0]
+    forward = _simulate(task, shape, specs, lanes=2, max_steps=30)
+    backward = _simulate(task, shape, specs[::-1], lanes=2, max_steps=30)[::-1]
+    alone = _simulate(task, shape, [specs[2]], lanes=2, max_steps=30)[0]
     for a, b in zip(forward, backward):
         assert a.spec == b.spec
         np.testing.assert_array_equal(a.states, b.states)
@@ -35,7 +43,7 @@ def test_simulate_runs_the_controller_a_robot_runs() -> None:
     """PushingController + ModelPlant, stepped from Python, follows the batched simulation."""
     task, shape = get_task("I"), make_shape("rect")
     settings = ControllerSettings(estimate_params=True)
-    sim = simulate(task, shape, [TrialSpec(4, UNKNOWN, estimate=True)], settings, max_steps=40, lanes=1)[0]
+    sim = _simulate(task, shape, [TrialSpec(4, UNKNOWN, estimate=True)], settings, max_steps=40, lanes=1)[0]
     assert np.abs(sim.params[-1] - UNKNOWN).max() > 1e-3          # the estimate moved: the check below means something
     pose, pusher = initial_conditions(task, shape, 4)
     plant = ModelPlant(shape)
@@ -53,7 +61,7 @@ def test_simulate_runs_the_controller_a_robot_runs() -> None:
 def test_every_result_is_reported_as_it_ends() -> None:
     seen: list[int] = []
     specs = [TrialSpec(s) for s in range(3)]
-    out = simulate(get_task("I"), make_shape("rect"), specs, lanes=2, max_steps=3,
+    out = _simulate(get_task("I"), make_shape("rect"), specs, lanes=2, max_steps=3,
                    on_result=lambda r: seen.append(r.spec.seed))
     assert sorted(seen) == [0, 1, 2] and [r.spec.seed for r in out] == [0, 1, 2]
     assert all(r.steps == 3 and not r.success and len(r.step_ms) == 3 for r in out)
@@ -67,7 +75,7 @@ def test_every_result_is_reported_as_it_ends() -> None:
 
     seen.clear()
     with pytest.raises(StopRunError):
-        simulate(get_task("I"), make_shape("rect"), specs, lanes=2, max_steps=3, on_result=first)
+        _simulate(get_task("I"), make_shape("rect"), specs, lanes=2, max_steps=3, on_result=first)
     assert seen == [0]
 
 
@@ -78,14 +86,14 @@ def test_every_result_is_reported_as_it_ends() -> None:
 ])
 def test_bad_arguments_are_named(kwargs: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):
-        simulate(get_task("I"), make_shape("rect"), [TrialSpec(0)], **kwargs)
+        _simulate(get_task("I"), make_shape("rect"), [TrialSpec(0)], **kwargs)
 
 
 def test_bad_trial_is_named() -> None:
     with pytest.raises(ValueError, match="seed"):
-        simulate(get_task("I"), make_shape("rect"), [TrialSpec(-1)])
+        _simulate(get_task("I"), make_shape("rect"), [TrialSpec(-1)])
     with pytest.raises(ValueError, match=r"β|beta|params"):
-        simulate(get_task("I"), make_shape("rect"), [TrialSpec(0, (-1.0, 0.0, 0.0))])
+        _simulate(get_task("I"), make_shape("rect"), [TrialSpec(0, (-1.0, 0.0, 0.0))])
 
 
 def test_touching_an_obstacle_fails_the_trial_at_the_touch() -> None:
@@ -93,7 +101,7 @@ def test_touching_an_obstacle_fails_the_trial_at_the_touch() -> None:
     from dexpush.experiments.scenarios import Task
 
     task = Task("X", "touch", goal=(0.6, 0.0, 0.0), obstacles=((0.0, 0.0, 0.02),))
-    out = simulate(task, make_shape("rect"), [TrialSpec(0), TrialSpec(1)], lanes=1, max_steps=50)
+    out = _simulate(task, make_shape("rect"), [TrialSpec(0), TrialSpec(1)], lanes=1, max_steps=50)
     assert all(not r.success and r.steps == 1 and len(r.states) == 2 for r in out)
 
 
@@ -101,7 +109,7 @@ def test_a_trial_that_starts_at_its_goal_takes_no_steps() -> None:
     from dexpush.experiments.scenarios import Task
 
     task = Task("X", "at goal", goal=(0.0, 0.0, 0.0), start_jitter_m=0.0, start_jitter_deg=0.0)
-    out = simulate(task, make_shape("rect"), [TrialSpec(0)], lanes=1, max_steps=5)[0]
+    out = _simulate(task, make_shape("rect"), [TrialSpec(0)], lanes=1, max_steps=5)[0]
     assert out.success and out.steps == 0 and out.states.shape == (1, 5) and out.commands.shape == (0, 2)
 
 

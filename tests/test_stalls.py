@@ -17,7 +17,7 @@ from dexpush import Shape
 from dexpush.control.controller import ControllerSettings, plan_step, policy_init, watch_progress
 from dexpush.control.mppi import slot_durations
 from dexpush.model.cgvmm import LAMBDA_TRUE, Contour
-from dexpush.problem.cost import Scene
+from dexpush.problem.scene import Scene
 
 SHAPE = Shape.rectangle()
 SCENE = Scene.make(SHAPE, (0.6, 0.0, 0.0))

@@ -9,9 +9,11 @@ import pytest
 from dexpush import Shape
 from dexpush.common.se2 import pose_error
 from dexpush.experiments.runner import run_episode
-from dexpush.experiments.scenarios import TASKS, Task, get_task, initial_conditions, is_success
+from dexpush.experiments.scenarios import TASKS, Task, get_task, initial_conditions
 from dexpush.model.cgvmm import Contour, contact_gap
-from dexpush.problem.cost import Scene, collides
+from dexpush.problem.obstacles import collides
+from dexpush.problem.problem import is_success
+from dexpush.problem.scene import Scene
 
 
 def test_tasks_match_the_spec() -> None:
@@ -69,7 +71,7 @@ def test_short_closed_loop_episode_reaches_a_nearby_goal() -> None:
 
 
 def test_effective_free_roaming_radius() -> None:
-    from dexpush.problem.cost import CostWeights
+    from dexpush.problem.weights import CostWeights
 
     assert float(Scene.make(Shape.rectangle(), (0, 0, 0)).r_s) == pytest.approx(0.2)
     tee = Shape.tee()
@@ -86,7 +88,8 @@ def test_task_three_run_never_touches_the_obstacle() -> None:
 
 def test_the_cost_keeps_a_margin_that_the_reported_collision_does_not() -> None:
     """The planner's collision test uses discs grown by obstacle_margin_m; a trial fails only on a real touch."""
-    from dexpush.problem.cost import CostWeights, running_cost
+    from dexpush.problem.cost import running_cost
+    from dexpush.problem.weights import CostWeights
 
     shape, w = Shape.rectangle(), CostWeights()
     scene = Scene.make(shape, (0.6, 0, 0), ((0.30, 0.0, 0.05),), w)

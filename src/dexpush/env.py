@@ -48,16 +48,10 @@ from dexpush.common.interfaces import Plant, check_plant
 from dexpush.common.se2 import wrap_angle
 from dexpush.control.mppi import MPPISettings
 from dexpush.experiments.registry import PLANTS, make_plant, make_shape
-from dexpush.experiments.scenarios import (
-    MAX_STEPS,
-    SUCCESS_HEADING_DEG,
-    SUCCESS_POSITION_M,
-    Task,
-    get_task,
-    initial_conditions,
-)
+from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task, initial_conditions
 from dexpush.model.shape import Shape
-from dexpush.problem.cost import CostWeights
+from dexpush.problem.problem import SUCCESS_HEADING_DEG, SUCCESS_POSITION_M, Problem, is_success
+from dexpush.problem.weights import CostWeights
 from dexpush.world.plants import ModelPlant
 from dexpush.world.sensing import Camera, SensorSettings
 
@@ -102,9 +96,7 @@ class _Goals:
         return np.array([rng.uniform(*self.range[0]), rng.uniform(*self.range[1]), rng.uniform(-np.pi, np.pi)])
 
     def success(self, q: np.ndarray, goal: np.ndarray) -> np.ndarray:
-        pos = np.linalg.norm(q[..., :2] - goal[..., :2], axis=-1)
-        head = np.degrees(np.abs(wrap_angle(q[..., 2] - goal[..., 2])))
-        return (pos < self.position_m) & (head < self.heading_deg)
+        return is_success(q, goal, np, self.position_m, self.heading_deg)
 
 
 class PushEnv(gym.Env):
@@ -139,8 +131,18 @@ class PushEnv(gym.Env):
         self.observation_space = spaces.Box(-_OBS_LIMIT, _OBS_LIMIT, dtype=np.float32)
         self.goals = _Goals(self.task, goal, goal_range, success_position_m, success_heading_deg)
         self._goal = self.goals.fixed.copy()
+        self._problem: Problem | None = None
         self._obs: np.ndarray | None = None
         self._steps = 0
+
+    @property
+    def problem(self) -> Problem:
+        """The :class:`dexpush.problem.problem.Problem` of the current episode (its goal is drawn at reset):
+        what a method's controller solves in this env (:meth:`dexpush.experiments.methods.Method.controller`)."""
+        if self._problem is None or self._problem.goal != tuple(self._goal):
+            self._problem = Problem(self.shape, tuple(self._goal), self.task.obstacles,
+                                    tolerance_m=self.goals.position_m, tolerance_deg=self.goals.heading_deg)
+        return self._problem
 
     def _observation(self, frame: Any) -> np.ndarray:
         if frame is not None:

@@ -1,13 +1,15 @@
-"""Figures: episode trajectories (like the paper's Fig. 8), animations, and shape diagrams."""
+"""Figures: episode trajectories (like the paper's Fig. 8), animations, and shape diagrams.
+
+Importing this module leaves matplotlib's backend to the application: the command line chooses
+the non-interactive Agg backend (:func:`dexpush.cli.main.main`), a notebook keeps its own.
+"""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
+import matplotlib.colors
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.collections import LineCollection
@@ -17,7 +19,8 @@ from dexpush.common.files import atomic_path
 from dexpush.model.cgvmm import MODE_NAMES
 from dexpush.model.shape import Shape
 
-__all__ = ["animate_episode", "plot_condition", "plot_episode", "plot_fit", "plot_shapes", "save_figure_atomic"]
+__all__ = ["animate_episode", "plot_condition", "plot_confusion", "plot_episode", "plot_fit", "plot_mode_decisions",
+           "plot_online_lambda", "plot_params", "plot_shapes", "save_figure_atomic"]
 
 MODE_COLORS = {"stick": "#e6a800", "slide_ccw": "#2ca02c", "slide_cw": "#1f77b4", "free": "#d62728",
                "corner": "#9467bd"}

@@ -24,8 +24,9 @@ from pathlib import Path
 from dexpush.cli.arguments import floats, positive_int, seed, seed_list
 from dexpush.cli.planner_flags import add_planner_flags, planner_settings
 from dexpush.experiments.benchmark import BENCH_LANES
+from dexpush.experiments.methods import get_method, method_names
 from dexpush.experiments.records import CONDITION_KEYS
-from dexpush.experiments.registry import ALL_METHODS, PARAMS, PLANTS, SHAPES
+from dexpush.experiments.registry import PARAMS, PLANTS, SHAPES
 from dexpush.experiments.scenarios import MAX_STEPS
 
 __all__ = ["main"]
@@ -47,7 +48,7 @@ def _episode_files(episode, shape, out: Path, animation: bool, control_period: f
     fig = plot_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles, title=title,
                        path=files["trajectory"])
     plt.close(fig)
-    if rec.method == "mppi-ukf":
+    if get_method(rec.method).estimates:
         files["params"] = str(out / "params.png")
         plt.close(plot_params(episode.params, truth, files["params"], dt=control_period, title=title))
     if animation:
@@ -262,7 +263,7 @@ def _cmd_bench(args: argparse.Namespace) -> dict:
 
     tasks = [get_task(t).key for t in args.tasks.split(",")]
     shapes, params, methods = (args.shapes.split(","), args.params.split(","), args.methods.split(","))
-    choices = (("shape", shapes, SHAPES), ("params", params, tuple(PARAMS)), ("method", methods, ALL_METHODS))
+    choices = (("shape", shapes, SHAPES), ("params", params, tuple(PARAMS)), ("method", methods, method_names()))
     for name, values, allowed in choices:
         bad = [v for v in values if v not in allowed]
         if bad:
@@ -360,7 +361,7 @@ def build_parser() -> argparse.ArgumentParser:
                       metavar="CX,CY,R", help="a disc obstacle in m; repeat for more (default: the task's)")
     what.add_argument("--seed", type=seed, default=None, help="start perturbation and MPPI sampling (default 0)")
     how = run.add_argument_group("controller and world")
-    how.add_argument("--method", default=None, choices=ALL_METHODS,
+    how.add_argument("--method", default=None, choices=method_names(),
                      help="MPPI with fixed λ_pred, MPPI with the UKF estimating λ online, or the GCS "
                           "plan-and-track baseline (no obstacles; needs the `drake` package) (default mppi)")
     how.add_argument("--params", default=None, choices=tuple(PARAMS),
@@ -375,7 +376,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="the model plant's true λ (default 25,-0.01,0.02)")
     how.add_argument("--mu", type=float, default=None, help="the model plant's true μ_c (default 0.3)")
     how.add_argument("--lanes", type=positive_int, default=1,
-                     help="batch lanes of the simulation (default 1); 32 reproduces a `dexpush bench` record exactly")
+                     help=f"batch lanes of the simulation (default 1); {BENCH_LANES} (the bench's) reproduces a "
+                          "`dexpush bench` record exactly")
     sensor_args(run)
     episode_args(run, "out/run")
     run.set_defaults(func=_cmd_run)
@@ -386,8 +388,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help=f"comma-separated shapes from {', '.join(SHAPES)} (default rect,tee)")
     bench.add_argument("--params", default="known,unknown",
                        help="comma-separated: known (λ_pred = λ_true), unknown (λ_pred starts at [15, 0, 0])")
-    bench.add_argument("--methods", default="mppi,mppi-ukf",
-                       help="comma-separated, from mppi, mppi-ukf, gcs (gcs skips task III: no obstacles)")
+    bench.add_argument("--methods", default=",".join(method_names(default_only=True)),
+                       help=f"comma-separated, from {', '.join(method_names())} (methods without obstacle support "
+                            f"skip task III) (default {','.join(method_names(default_only=True))})")
     bench.add_argument("--trials", type=positive_int, default=30, help="seeds 0 … trials−1 (default 30)")
     bench.add_argument("--seeds", type=seed_list, default=None, metavar="LIST",
                        help="run these seeds instead, e.g. 7 or 0-4,9 (re-running a seed reproduces its record)")
@@ -442,6 +445,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    import matplotlib
+
+    matplotlib.use("Agg")                   # figures go to files: no display needed, none opened
     if not os.environ.get("DEXPUSH_NO_CACHE"):
         from dexpush.common import compile_cache
 

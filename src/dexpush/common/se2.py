@@ -12,18 +12,12 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["footprint_shift", "pose_error", "rotate", "rotation_matrix", "wrap_angle"]
+__all__ = ["footprint_shift", "pose_error", "rotate", "wrap_angle"]
 
 
 def wrap_angle(angle: Any, xp: Any = np) -> Any:
     """``angle`` wrapped to (−π, π] (elementwise): atan2(sin a, cos a)."""
     return xp.arctan2(xp.sin(angle), xp.cos(angle))
-
-
-def rotation_matrix(theta: Any, xp: Any = np) -> Any:
-    """R(θ) (..., 2, 2): rotates body-frame vectors into the world frame."""
-    c, s = xp.cos(theta), xp.sin(theta)
-    return xp.stack([xp.stack([c, -s], -1), xp.stack([s, c], -1)], -2)
 
 
 def rotate(vector: Any, theta: Any, xp: Any = np) -> Any:
@@ -34,7 +28,8 @@ def rotate(vector: Any, theta: Any, xp: Any = np) -> Any:
 
 
 def pose_error(object_pose: object, goal: object, xp: Any = np) -> tuple[Any, Any]:
-    """Position error (m) and absolute heading error (deg, wrapped) of poses (..., 3) against ``goal``.
+    """Position error (m) and absolute heading error (deg, wrapped) of poses (..., 3) against ``goal``
+    (3,), or against goals (..., 3) one per pose.
 
     With numpy the arithmetic is float64 whatever the input dtype.
     """
@@ -42,8 +37,8 @@ def pose_error(object_pose: object, goal: object, xp: Any = np) -> tuple[Any, An
     g = xp.asarray(goal, dtype=q.dtype)
     if xp is np:
         q, g = q.astype(np.float64), g.astype(np.float64)
-    pos = xp.sqrt(xp.sum((q[..., :2] - g[:2]) ** 2, axis=-1))
-    return pos, xp.degrees(xp.abs(wrap_angle(q[..., 2] - g[2], xp)))
+    pos = xp.sqrt(xp.sum((q[..., :2] - g[..., :2]) ** 2, axis=-1))
+    return pos, xp.degrees(xp.abs(wrap_angle(q[..., 2] - g[..., 2], xp)))
 
 
 def footprint_shift(vertices: np.ndarray, q0: object, q1: object) -> float:

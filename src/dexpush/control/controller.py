@@ -21,6 +21,7 @@ re-exported here, where a user looks for them.
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 from functools import partial
 
 import jax
@@ -42,7 +43,9 @@ from dexpush.control.policy import (
 )
 from dexpush.model.cgvmm import LAMBDA_TRUE, Contour, integrate
 from dexpush.model.shape import Shape
-from dexpush.problem.cost import CostWeights, Scene, obstacle_array
+from dexpush.problem.problem import Problem
+from dexpush.problem.scene import Scene
+from dexpush.problem.weights import CostWeights
 
 __all__ = ["ControllerSettings", "ControllerState", "CostWeights", "PushingController", "estimate_step",
            "footprint_shift", "plan_step", "policy_init", "policy_step", "watch_progress"]
@@ -72,34 +75,44 @@ class PushingController:
     """Goal-oriented pushing with long-horizon MPPI over the C-GVMM.
 
     Args:
-        shape: the pushed object.
-        goal: goal pose (x, y, θ) in the world frame.
+        problem: the :class:`dexpush.problem.problem.Problem` to solve (object, goal, obstacles, cost
+            weights), or the pushed object's :class:`Shape`, with ``goal`` and ``obstacles`` beside it.
+        goal: with a shape: the goal pose (x, y, θ) in the world frame.
         params: λ_pred = [β, x_bf, y_bf] the model assumes (update with :meth:`set_params`);
             without it the controller warns and uses the paper's λ_true for its box.
-        obstacles: disc obstacles (c_x, c_y, radius) to avoid with object and pusher.
-        settings: :class:`ControllerSettings` (MPPI knobs, cost weights, μ_c, the UKF).
+        obstacles: with a shape: disc obstacles (c_x, c_y, radius) to avoid with object and pusher.
+        settings: :class:`ControllerSettings` (MPPI knobs, μ_c, the UKF; with a shape, the cost weights).
         seed: seeds the MPPI sampling; equal seeds and observations give equal commands.
     """
 
-    def __init__(self, shape: Shape, goal: object, params: object = None,
+    def __init__(self, problem: Problem | Shape, goal: object = None, params: object = None,
                  obstacles: object = (), settings: ControllerSettings | None = None,
                  seed: int = 0) -> None:
-        if not isinstance(shape, Shape):
-            raise TypeError(f"shape must be a dexpush.Shape, got {type(shape).__name__}")
         if settings is not None and not isinstance(settings, ControllerSettings):
             raise ValueError(f"settings must be a ControllerSettings, got {settings!r}")
-        self.shape = shape
-        self.settings = settings or ControllerSettings()
-        world_goal = checked_vector("goal", goal, 3)
-        self._goal = world_goal
-        # a local origin at the goal: float32 keeps its resolution wherever the robot's world frame is;
-        # ``scene`` (goal, obstacles) is in that frame, and so is everything the compiled steps see
-        self._origin = np.array([world_goal[0], world_goal[1], 0.0])
-        self._heading_ref = float(world_goal[2])
-        discs = obstacle_array(obstacles) - self._origin * [1.0, 1.0, 0.0]
-        self.scene = Scene.make(shape, world_goal - self._origin, discs, self.settings.weights)
-        self.contour = Contour.of(shape)
-        self._vertices = np.asarray(shape.edges[0], dtype=np.float64)   # the footprint's corners in {B}
+        settings = settings or ControllerSettings()
+        if isinstance(problem, Problem):
+            if goal is not None or len(obstacles):
+                raise ValueError("a Problem holds the goal and the obstacles: pass them to Problem, not beside it")
+            if settings.weights not in (CostWeights(), problem.weights):
+                raise ValueError("settings.weights differs from problem.weights: the Problem's weights are the "
+                                 "cost the controller plans with; set them there")
+        elif isinstance(problem, Shape):
+            if goal is None:
+                raise ValueError("goal is needed: PushingController(shape, goal=(x, y, θ), ...)")
+            problem = Problem(problem, goal, obstacles, settings.weights)
+        else:
+            raise TypeError(f"problem must be a dexpush Problem or Shape, got {type(problem).__name__}")
+        self.problem = problem
+        self.shape = problem.shape
+        self.settings = replace(settings, weights=problem.weights)
+        self._goal = np.asarray(problem.goal, dtype=np.float64)
+        # the compiled steps see the controller's frame, whose origin is the goal (Problem.local_scene)
+        self._origin = problem.origin
+        self._heading_ref = float(problem.goal[2])
+        self.scene = problem.local_scene
+        self.contour = problem.contour
+        self._vertices = np.asarray(self.shape.edges[0], dtype=np.float64)   # the footprint's corners in {B}
         self._seed = checked_seed(seed)
         if params is None:
             warnings.warn("PushingController: no params given, so it plans with the paper's λ_true = "

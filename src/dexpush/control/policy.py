@@ -26,7 +26,9 @@ from dexpush.control.estimator import EstimatorState, UKFSettings, estimator_ini
 from dexpush.control.mppi import MPPIResult, MPPISettings, mppi_iteration, shift_in_time, slot_durations
 from dexpush.control.proposals import contact_proposals
 from dexpush.model.cgvmm import Contour, contact_gap, step
-from dexpush.problem.cost import CostWeights, Scene, goal_distance_sq, plan_margin, running_cost, terminal_cost
+from dexpush.problem.cost import goal_distance_sq, plan_margin, running_cost, terminal_cost
+from dexpush.problem.scene import Scene
+from dexpush.problem.weights import CostWeights
 
 __all__ = ["ControllerSettings", "ControllerState", "estimate_step", "plan_step", "policy_init", "policy_step",
            "watch_progress"]

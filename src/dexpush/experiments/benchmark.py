@@ -25,20 +25,21 @@ import threading
 import time
 from collections.abc import Sequence
 from dataclasses import asdict
+from functools import partial
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from dexpush.common.files import atomic_path, write_json_atomic
+from dexpush.common.progress import progress_bar
 from dexpush.control.controller import ControllerSettings
-from dexpush.experiments.records import CONDITION_KEYS, condition_name, make_episode
-from dexpush.experiments.registry import ALL_METHODS, PARAMS, PLANTS, SHAPES, check_condition, make_shape, world_sensor
+from dexpush.experiments.methods import get_method, method_names
+from dexpush.experiments.records import CONDITION_KEYS, Condition, condition_name, make_episode
+from dexpush.experiments.registry import PARAMS, PLANTS, SHAPES, check_condition, make_shape, world_sensor
 from dexpush.experiments.runner import batched, run_trial, trial_spec
 from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task
 from dexpush.experiments.simulate import TrialResult, TrialSpec, simulate
 from dexpush.model.shape import Shape
-from dexpush.problem.cost import Scene
 from dexpush.world.sensing import SensorSettings
 
 __all__ = ["BENCH_LANES", "exit_with_parent", "folder_records", "run_benchmark", "run_settings"]
@@ -87,11 +88,14 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
         raise ValueError(f"unknown plant {plant!r}; choose one of {', '.join(PLANTS)}")
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
-    if "gcs" in methods and sensor is not None and not sensor.perfect:
-        raise ValueError("the GCS baseline runs with exact observations only; drop gcs or the camera options")
-    skipped = [t for t in task_keys if get_task(t).obstacles] if "gcs" in methods else []
-    if skipped and progress:
-        print(f"gcs: no obstacle support, skipping task {', '.join(skipped)}", file=sys.stderr, flush=True)
+    exact = sensor is None or sensor.perfect
+    for m in map(get_method, methods):
+        if not exact and not m.cameras:
+            raise ValueError(f"the {m.name} method runs with exact observations only; drop {m.name} or the camera "
+                             "options")
+        skipped = [t for t in task_keys if get_task(t).obstacles] if not m.obstacles else []
+        if skipped and progress:
+            print(f"{m.name}: no obstacle support, skipping task {', '.join(skipped)}", file=sys.stderr, flush=True)
     seeds = sorted({int(s) for s in seeds})
     _claim_folder(out, run_settings(plant, sensor, settings, max_steps, lanes), progress)
     groups = sorted(((t, sh) for t in task_keys for sh in shapes), key=_expected_cost, reverse=True)
@@ -153,7 +157,7 @@ def exit_with_parent(parent: int, poll_s: float = 1.0) -> None:
 
 def folder_records(out: str | os.PathLike) -> list[dict]:
     """Every trial recorded in ``out/conditions/``, in task, shape, params, method, seed order."""
-    rank = {k: i for i, k in enumerate(("I", "II", "III", *SHAPES, *PARAMS, *ALL_METHODS))}
+    rank = {k: i for i, k in enumerate(("I", "II", "III", *SHAPES, *PARAMS, *method_names()))}
     records = [r for path in sorted(Path(out, "conditions").glob("*.json")) for r in _load_condition(path).values()]
     return sorted(records, key=lambda r: (*(rank.get(r[k], len(rank)) for k in CONDITION_KEYS), r["seed"]))
 
@@ -219,8 +223,9 @@ def _claim_folder(out: Path, wanted: dict, progress: bool) -> None:
 
 
 def _methods_for(task: Task, methods: Sequence[str]) -> tuple[str, ...]:
-    """The methods that run on ``task``: GCS has no obstacle support (as in the paper)."""
-    return tuple(m for m in methods if not (m == "gcs" and task.obstacles))
+    """The methods that run on ``task``: those without obstacle support skip tasks with obstacles (GCS, as
+    in the paper)."""
+    return tuple(m for m in methods if get_method(m).obstacles or not task.obstacles)
 
 
 def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, ...], methods: tuple[str, ...],
@@ -229,7 +234,7 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
     """The conditions of one task and shape (see :func:`run_benchmark`)."""
     task, shape = get_task(task_key), make_shape(shape_name)
     settings = settings or ControllerSettings()
-    scene = Scene.make(shape, task.goal, task.obstacles)
+    problem = task.problem(shape, settings.weights)
     names = {(p, m): condition_name(task.key, shape_name, p, m) for p in params for m in _methods_for(task, methods)}
     records: dict[str, dict[int, dict]] = {}
     specs: list[tuple[TrialSpec, str, str]] = []
@@ -241,8 +246,9 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
     def save(result: TrialResult) -> None:
         p, m = owner[id(result.spec)]
         name = names[(p, m)]
-        ep = make_episode(task, shape_name, shape, p, m, result, lanes if batched(plant, m, sensor) else 1, scene,
-                          plant=plant, sensor=world_sensor(plant, sensor, result.spec.seed),
+        ep = make_episode(problem, Condition(task.key, shape_name, p, m), result,
+                          lanes if batched(plant, m, sensor) else 1, plant=plant,
+                          sensor=world_sensor(plant, sensor, result.spec.seed),
                           control_period=settings.mppi.control_period)
         records[name][result.spec.seed] = ep.summary()
         if figures:   # the trajectory first: a trial whose record exists never lacks its trajectory
@@ -251,16 +257,19 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
                           {"trials": [records[name][s] for s in sorted(records[name])]})
 
     desc = f"task {task.key} {shape_name}"
+    starts = partial(task.trial_start, shape)
     queued = [spec for spec, _, m in specs if batched(plant, m, sensor)]
     one_by_one = [(spec, m) for spec, _, m in specs if not batched(plant, m, sensor)]
     if queued:
         if progress:
             print(f"{desc}: {len(queued)} trials in {lanes} lanes", file=sys.stderr, flush=True)
-        simulate(task, shape, queued, settings, max_steps=max_steps, lanes=lanes,
+        simulate(problem, queued, settings, starts=starts, max_steps=max_steps, lanes=lanes,
                  on_result=save, progress=progress, desc=desc)
-    for spec, m in tqdm(one_by_one, desc=f"{desc} ({plant})", unit="trial", disable=not progress or not one_by_one,
-                        position=position, leave=False):
-        save(run_trial(task, shape, spec, m, plant, sensor, settings, max_steps))
+    bar = progress_bar(len(one_by_one), f"{desc} ({plant})", "trial", progress and bool(one_by_one), position)
+    for spec, m in one_by_one:
+        save(run_trial(problem, starts, spec, m, plant, sensor, settings, max_steps, desc=desc))
+        bar.update(1)
+    bar.close()
     if figures:
         for name in names.values():
             _draw_condition(out, name, shape, task, records[name])

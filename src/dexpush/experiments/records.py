@@ -9,19 +9,18 @@ per-condition numbers of docs/conventions.md#benchmark-tasks (success rate, path
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from typing import NamedTuple
 
-import jax.numpy as jnp
 import numpy as np
 
 from dexpush.common.se2 import pose_error
-from dexpush.experiments.scenarios import Task
-from dexpush.experiments.simulate import ESTIMATOR_COUNTERS, TrialResult
-from dexpush.model.cgvmm import LAMBDA_TRUE, MODE_NAMES, Contour, contact_solution
-from dexpush.model.shape import Shape
-from dexpush.problem.cost import Scene, clearance_jit, collides_jit
+from dexpush.experiments.methods import get_method
+from dexpush.experiments.simulate import TrialResult
+from dexpush.model.cgvmm import LAMBDA_TRUE, MODE_NAMES, contact_solution
+from dexpush.problem.problem import Problem
 from dexpush.world.sensing import SensorSettings
 
-__all__ = ["CONDITION_KEYS", "Episode", "EpisodeRecord", "condition_name", "make_episode", "sensor_label",
+__all__ = ["CONDITION_KEYS", "Condition", "Episode", "EpisodeRecord", "condition_name", "make_episode", "sensor_label",
            "summarize"]
 
 CONDITION_KEYS = ("task", "shape", "params", "method")
@@ -74,7 +73,7 @@ class EpisodeRecord:
     gated_windows: int | None = None      #: of those, windows the innovation gate down-weighted
     stall_resets: int | None = None       #: MPPI: planner restarts after a stall (docs/controller.md#stalls)
     #: with obstacles: the smallest gap (m) between an obstacle and the object or the pusher over the trial
-    #: (≤ 0 on a touch; :func:`dexpush.problem.cost.clearance`)
+    #: (≤ 0 on a touch; :func:`dexpush.problem.obstacles.clearance`)
     clearance_m: float | None = None
 
 
@@ -108,42 +107,48 @@ def sensor_label(sensor: SensorSettings | None) -> str:
             f"latency {sensor.latency_s * 1e3:g} ms, drops {sensor.drop_prob:.0%}")
 
 
-def make_episode(task: Task, shape_name: str, shape: Shape, params: str, method: str, result: TrialResult,
-                 lanes: int, scene: Scene | None = None, plant: str = "model",
-                 sensor: SensorSettings | None = None, control_period: float = 0.04) -> Episode:
-    """The record (docs/conventions.md#benchmark-tasks) and trajectory of a finished trial.
+class Condition(NamedTuple):
+    """What a trial's record is filed under: the scenario's key, the shape's name, the λ_pred scenario
+    (``known``, ``unknown``, ``custom``) and the method's name (:data:`CONDITION_KEYS`)."""
 
-    Contact modes are labelled with the C-GVMM at λ_true (for the trajectory figure);
-    ``control_period`` converts steps to ``time_s``.
+    task: str
+    shape: str
+    params: str
+    method: str
+
+
+def make_episode(problem: Problem, condition: Condition, result: TrialResult, lanes: int, plant: str = "model",
+                 sensor: SensorSettings | None = None, control_period: float = 0.04) -> Episode:
+    """The record (docs/conventions.md#benchmark-tasks) and trajectory of a finished trial of ``problem``.
+
+    Contact modes are labelled with the C-GVMM at λ_true (for the trajectory figure); obstacle
+    touches and clearance with the problem's obstacles; the method's own fields come from
+    :meth:`dexpush.experiments.methods.Method.diagnostics`; ``control_period`` converts steps to ``time_s``.
     """
-    scene = scene or Scene.make(shape, task.goal, task.obstacles)
     X, U = result.states, result.commands
     if len(U):
         n = len(U)
-        modes = np.asarray(contact_solution(Contour.of(shape), _in_blocks(X[:-1]), _in_blocks(U), LAMBDA_TRUE).mode)[:n]
-        xs = jnp.asarray(_in_blocks(X[1:]), jnp.float32)
-        hits = np.asarray(collides_jit(xs, scene))[:n]
-        gaps = np.asarray(clearance_jit(xs, scene))[:n] if len(task.obstacles) else None
+        modes = np.asarray(contact_solution(problem.contour, _in_blocks(X[:-1]), _in_blocks(U), LAMBDA_TRUE).mode)[:n]
+        xs = _in_blocks(X[1:])
+        hits = problem.collides(xs)[:n]
+        gaps = problem.clearance(xs)[:n] if problem.has_obstacles else None
     else:
         modes, hits, gaps = np.zeros(0, int), np.zeros(0, bool), None
     in_contact = modes != MODE_NAMES.index("free")
-    pos_err, head_err = pose_error(X[-1, :3], task.goal)
+    pos_err, head_err = pose_error(X[-1, :3], problem.goal)
     ms = result.step_ms if len(result.step_ms) else np.zeros(1)
     record = EpisodeRecord(
-        task=task.key, shape=shape_name, params=params, method=method, seed=result.spec.seed,
-        success=bool(result.success), steps=len(U), time_s=round(len(U) * control_period, 3),
+        task=condition.task, shape=condition.shape, params=condition.params, method=condition.method,
+        seed=result.spec.seed, success=bool(result.success), steps=len(U), time_s=round(len(U) * control_period, 3),
         object_path_m=round(_path_length(X[:, :2]), 4), pusher_path_m=round(_path_length(X[:, 3:]), 4),
         final_error_m=round(float(pos_err), 5), final_error_deg=round(float(head_err), 3),
         collisions=int(np.sum(hits)), contact_switches=int(np.sum(in_contact[1:] != in_contact[:-1])),
         planning_ms_median=round(float(np.median(ms)), 3), planning_ms_max=round(float(np.max(ms)), 3),
-        params_estimate=[round(float(v), 5) for v in result.params[-1]] if method == "mppi-ukf" and len(U) else None,
         lanes=int(lanes), plant=plant, sensor=sensor_label(sensor),
-        offline_plan_s=round(float(result.plan_s[0]), 3) if result.plan_s else None,
-        replans=len(result.plan_s) - 1 if result.plan_s else None,
-        stall_resets=result.stall_resets, clearance_m=round(float(gaps.min()), 5) if gaps is not None else None,
-        **{name: getattr(result, name) if method == "mppi-ukf" else None for name in ESTIMATOR_COUNTERS})
-    return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(task.goal),
-                   np.asarray(task.obstacles).reshape(-1, 3))
+        clearance_m=round(float(gaps.min()), 5) if gaps is not None else None,
+        **get_method(condition.method).diagnostics(result))
+    return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(problem.goal),
+                   np.asarray(problem.obstacles).reshape(-1, 3))
 
 
 def summarize(trials: list[dict]) -> dict:

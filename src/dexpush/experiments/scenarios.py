@@ -13,32 +13,22 @@ N_max = 1500 control steps, position error < 8 mm and heading error < 3°.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from dexpush.common.se2 import pose_error
 from dexpush.model.shape import Shape
+from dexpush.problem.problem import Problem
+from dexpush.problem.weights import CostWeights
 
-__all__ = [
-    "MAX_STEPS",
-    "SUCCESS_HEADING_DEG",
-    "SUCCESS_POSITION_M",
-    "TASKS",
-    "Task",
-    "get_task",
-    "initial_conditions",
-    "is_success",
-]
+__all__ = ["MAX_STEPS", "TASKS", "Task", "get_task", "initial_conditions"]
 
-SUCCESS_POSITION_M = 0.008
-SUCCESS_HEADING_DEG = 3.0
-MAX_STEPS = 1500
+MAX_STEPS = 1500   #: N_max, the control steps a trial may take
 
 
 @dataclass(frozen=True)
 class Task:
-    """A goal pose, optional disc obstacles (c_x, c_y, r), and the start perturbation."""
+    """A benchmark scenario: a goal pose, optional disc obstacles (c_x, c_y, r), and the start
+    distribution. (A *task* in the paper's sense; :meth:`problem` gives what a method solves.)"""
 
     key: str
     title: str
@@ -48,6 +38,14 @@ class Task:
     start_jitter_m: float = 0.02
     start_jitter_deg: float = 10.0
     pusher_clearance_m: float = 0.05
+
+    def trial_start(self, shape: Shape, seed: int) -> tuple[np.ndarray, np.ndarray]:
+        """The start of trial ``seed`` on ``shape``: :func:`initial_conditions`."""
+        return initial_conditions(self, shape, seed)
+
+    def problem(self, shape: Shape, weights: CostWeights | None = None) -> Problem:
+        """The :class:`dexpush.problem.problem.Problem` of pushing ``shape`` in this scenario."""
+        return Problem(shape, self.goal, self.obstacles, weights or CostWeights())
 
 
 TASKS: dict[str, Task] = {
@@ -86,9 +84,3 @@ def initial_conditions(task: Task, shape: Shape, seed: int) -> tuple[np.ndarray,
     c, s = np.cos(pose[2]), np.sin(pose[2])
     pusher = pose[:2] + np.array([c * r[0] - s * r[1], s * r[0] + c * r[1]])
     return pose, pusher
-
-
-def is_success(object_pose: object, goal: object, xp: Any = np) -> Any:
-    """Position error < 8 mm and heading error < 3° (``xp`` as in :func:`dexpush.common.se2.pose_error`)."""
-    pos, head = pose_error(object_pose, goal, xp)
-    return (pos < SUCCESS_POSITION_M) & (head < SUCCESS_HEADING_DEG)

@@ -35,16 +35,20 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
-from tqdm import tqdm
 
 from dexpush.common.checks import check_params, checked_vector
+from dexpush.common.progress import progress_bar
 from dexpush.control.policy import ControllerSettings, ControllerState, policy_init, policy_step
-from dexpush.experiments.scenarios import MAX_STEPS, Task, initial_conditions, is_success
+from dexpush.experiments.scenarios import MAX_STEPS
 from dexpush.model.cgvmm import LAMBDA_TRUE, Contour, integrate
-from dexpush.model.shape import Shape
-from dexpush.problem.cost import Scene, collides_jit
+from dexpush.problem.problem import Problem, is_success
+from dexpush.problem.scene import Scene
 
-__all__ = ["ESTIMATOR_COUNTERS", "TrialResult", "TrialSpec", "simulate"]
+__all__ = ["ESTIMATOR_COUNTERS", "Starts", "TrialResult", "TrialSpec", "simulate"]
+
+
+#: a trial's start from its seed: (object pose (3,), pusher position (2,))
+Starts = Callable[[int], tuple[np.ndarray, np.ndarray]]
 
 
 @dataclass(frozen=True)
@@ -95,33 +99,33 @@ class Lane(NamedTuple):
 
 def _lane_step(lane: Lane, estimate: jnp.ndarray, max_steps: jnp.ndarray, contour: Contour, scene: Scene,
                plant_params: jnp.ndarray, plant_mu: jnp.ndarray, settings: ControllerSettings,
-               substeps: int) -> tuple[Lane, tuple[jnp.ndarray, ...]]:
+               substeps: int, tolerance: tuple[float, float]) -> tuple[Lane, tuple[jnp.ndarray, ...]]:
     policy, u, _ = policy_step(lane.policy, lane.x, estimate, contour=contour, scene=scene, settings=settings)
     x1 = integrate(contour, lane.x, u, jnp.float32(settings.mppi.control_period), plant_params, plant_mu,
                    substeps)
-    ok = is_success(x1[:3], scene.goal, xp=jnp)
+    ok = is_success(x1[:3], scene.goal, jnp, *tolerance)
     steps = lane.steps + 1
     new = Lane(x1, policy, steps, ok | (steps >= max_steps), ok)
     out = jax.tree.map(lambda old, nxt: jnp.where(lane.done, old, nxt), lane, new)
     return out, (x1, u, policy.params, ~lane.done)
 
 
-@partial(jax.jit, static_argnames=("settings", "length", "substeps"))
+@partial(jax.jit, static_argnames=("settings", "length", "substeps", "tolerance"))
 def _advance(lanes: Lane, estimate: jnp.ndarray, max_steps: jnp.ndarray, contour: Contour, scene: Scene,
              plant_params: jnp.ndarray, plant_mu: jnp.ndarray, *, settings: ControllerSettings, length: int,
-             substeps: int) -> tuple[Lane, tuple[jnp.ndarray, ...]]:
+             substeps: int, tolerance: tuple[float, float]) -> tuple[Lane, tuple[jnp.ndarray, ...]]:
     """``length`` control periods of every lane: (lanes, logs (length, B, ...))."""
     one = partial(_lane_step, max_steps=max_steps, contour=contour, scene=scene, plant_params=plant_params,
-                  plant_mu=plant_mu, settings=settings, substeps=substeps)
+                  plant_mu=plant_mu, settings=settings, substeps=substeps, tolerance=tolerance)
     batched = jax.vmap(one)
     return jax.lax.scan(lambda c, _: batched(c, estimate), lanes, None, length=length)
 
 
-def _new_lane(task: Task, shape: Shape, spec: TrialSpec, settings: ControllerSettings) -> Lane:
-    pose, pusher = initial_conditions(task, shape, spec.seed)
+def _new_lane(problem: Problem, starts: Starts, spec: TrialSpec, settings: ControllerSettings) -> Lane:
+    pose, pusher = starts(spec.seed)
     x0 = np.concatenate([pose, pusher]).astype(np.float32)
-    ok = bool(is_success(x0[:3], task.goal))
-    policy = policy_init(spec.params, settings, spec.seed, shape.footprint_box)
+    ok = bool(problem.success(x0[:3]))
+    policy = policy_init(spec.params, settings, spec.seed, problem.shape.footprint_box)
     return Lane(jnp.asarray(x0), policy, jnp.int32(0), jnp.bool_(ok), jnp.bool_(ok))
 
 
@@ -129,18 +133,22 @@ def _set_lane(lanes: Lane, i: int, lane: Lane) -> Lane:
     return jax.tree.map(lambda all_, one: all_.at[i].set(one), lanes, lane)
 
 
-def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: ControllerSettings | None = None,
-             max_steps: int = MAX_STEPS, lanes: int = 32, chunk: int = 25, plant_params: object = LAMBDA_TRUE,
+def simulate(problem: Problem, trials: Sequence[TrialSpec], settings: ControllerSettings | None = None, *,
+             starts: Starts, max_steps: int = MAX_STEPS, lanes: int = 32, chunk: int = 25,
+             plant_params: object = LAMBDA_TRUE,
              plant_mu: float = 0.3, substeps: int = 10,
              on_result: Callable[[TrialResult], None] | None = None, progress: bool = False,
              desc: str = "trials") -> list[TrialResult]:
-    """Run ``trials`` of ``task`` on ``shape`` in closed loop on the model plant, batched.
+    """Run ``trials`` of ``problem`` in closed loop on the model plant, batched.
 
     Args:
-        task, shape: the scene (goal, obstacles, start distribution of docs/conventions.md#benchmark-tasks).
+        problem: the object, goal, obstacles and cost (:class:`dexpush.problem.problem.Problem`).
         trials: the trials to run; results come back in the same order.
         settings: the controller's settings (``estimate_params`` is ignored: each
-            :class:`TrialSpec` says whether its controller estimates λ).
+            :class:`TrialSpec` says whether its controller estimates λ; the cost weights are the
+            problem's).
+        starts: a trial's start from its seed, (object pose, pusher position), e.g.
+            ``partial(task.trial_start, shape)`` (docs/conventions.md#benchmark-tasks).
         max_steps: N_max control steps per trial.
         lanes: trials advanced together (the vmapped batch). Idle lanes are padding, so a
             trial's outcome is the same for any queue run with the same ``lanes`` and
@@ -157,7 +165,7 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
         return []
     # each TrialSpec says whether its controller estimates λ; the settings' flag is unused here,
     # so it is normalised to keep one compiled program for both methods
-    settings = replace(settings or ControllerSettings(), estimate_params=False)
+    settings = replace(settings or ControllerSettings(), estimate_params=False, weights=problem.weights)
     if max_steps < 1 or lanes < 1 or chunk < 1:
         raise ValueError(f"max_steps, lanes and chunk must be >= 1, got {max_steps}, {lanes}, {chunk}")
     if substeps < 10:
@@ -168,19 +176,19 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
             raise ValueError(f"seed must be >= 0, got {spec.seed}")
     true_params = checked_vector("plant_params", plant_params, 3)
     check_params(true_params)
-    contour = Contour.of(shape)
-    scene = Scene.make(shape, task.goal, task.obstacles, settings.weights)
+    contour, scene = problem.contour, problem.scene
     n_lanes = lanes        # never fewer, even for one trial: see the module docstring
     queue = list(range(len(trials)))
-    first = _new_lane(task, shape, trials[0], settings)
+    first = _new_lane(problem, starts, trials[0], settings)
     batch = jax.tree.map(lambda a: jnp.stack([a] * n_lanes), first)
     batch = batch._replace(done=jnp.ones(n_lanes, bool))           # idle until filled
     estimate = np.zeros(n_lanes, bool)
     owner: list[int | None] = [None] * n_lanes
     logs: dict[int, dict[str, list]] = {}
     results: dict[int, TrialResult] = {}
+    tolerance = (problem.tolerance_m, problem.tolerance_deg)
     args = (contour, scene, jnp.asarray(true_params, jnp.float32), jnp.float32(plant_mu))
-    bar = tqdm(total=len(trials), desc=desc, unit="trial", disable=not progress, leave=False)
+    bar = progress_bar(len(trials), desc, "trial", progress)
 
     def finish(i: int, lane_success: bool, counts: tuple[int, ...] = (0, 0, 0, 0, 0)) -> None:
         log = logs.pop(i)
@@ -201,7 +209,7 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
         for k in range(n_lanes):                                     # refill idle lanes
             while owner[k] is None and queue:
                 i = queue.pop(0)
-                lane = _new_lane(task, shape, trials[i], settings)
+                lane = _new_lane(problem, starts, trials[i], settings)
                 logs[i] = {"x0": np.asarray(lane.x, np.float64)[None], "x": [], "u": [], "lam": [], "ms": []}
                 if bool(lane.done):                                  # starts at the goal: nothing to do
                     finish(i, True)
@@ -213,11 +221,13 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
             break
         if not warmed:   # compile outside the timed loop (a discarded call), and only if there is work
             jax.block_until_ready(_advance(batch, jnp.asarray(estimate), jnp.int32(max_steps), *args,
-                                           settings=settings, length=chunk, substeps=substeps))
+                                           settings=settings, length=chunk, substeps=substeps,
+                                           tolerance=tolerance))
             warmed = True
         t0 = time.perf_counter()
         batch, (xs, us, lams, active) = _advance(batch, jnp.asarray(estimate), jnp.int32(max_steps), *args,
-                                                 settings=settings, length=chunk, substeps=substeps)
+                                                 settings=settings, length=chunk, substeps=substeps,
+                                           tolerance=tolerance)
         xs, us, lams, active = (np.asarray(a) for a in (xs, us, lams, active))
         done, success = np.asarray(batch.done), np.asarray(batch.success)
         est = batch.policy.estimator
@@ -227,7 +237,7 @@ def simulate(task: Task, shape: Shape, trials: Sequence[TrialSpec], settings: Co
         ms = (time.perf_counter() - t0) * 1e3 / (n_lanes * chunk)
         # touching an obstacle ends a trial as a failure (conventions.md#benchmark-tasks); checked on the logged
         # states rather than inside the compiled step, whose program (and rounding) it would change
-        hits = np.asarray(collides_jit(jnp.asarray(xs), scene)) if len(task.obstacles) else np.zeros(active.shape, bool)
+        hits = problem.collides(xs)
         for k, i in enumerate(owner):
             if i is None:
                 continue

@@ -299,6 +299,7 @@ class PhysicsPlant:
 
         self._mj = mujoco
         self.shape = shape
+        self._contour = Contour.of(shape)
         self.settings = settings or PhysicsSettings()
         self.model = mujoco.MjModel.from_xml_string(scene_xml(shape, self.settings))
         self.data = mujoco.MjData(self.model)
@@ -328,8 +329,7 @@ class PhysicsPlant:
         """Place the slider (at rest) and the pusher; the pusher must not start inside it."""
         q = checked_vector("object_pose", object_pose, 3)
         p = checked_vector("pusher_xy", pusher_xy, 2)
-        contour = Contour.of(self.shape)
-        if float(contact_gap(contour, jnp.asarray(np.concatenate([q, p])))) < -1e-3:
+        if float(contact_gap(self._contour, jnp.asarray(np.concatenate([q, p])))) < -1e-3:
             raise ValueError("pusher starts inside the object; place it on or outside the pusher-inflated contour")
         mj = self._mj
         mj.mj_resetData(self.model, self.data)

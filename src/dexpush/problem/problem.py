@@ -1,0 +1,110 @@
+"""A pushing problem: what to push, where to, past what, at what cost (:class:`Problem`).
+
+A :class:`Problem` is validated and built once. It holds what every part of an experiment
+derives from the object, the goal and the obstacles: the inflated contour's table
+(:class:`dexpush.model.cgvmm.Contour`), the cost's view of the world (:class:`Scene`, in the
+world frame and in the controller's goal-centred frame), and the tests a trial is judged by
+(success: position and heading within tolerance; a touch of an obstacle). The controller, the
+batched simulator, the episode loop, the records and the methods take a Problem, so nothing
+below re-derives what it holds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import jax.numpy as jnp
+import numpy as np
+
+from dexpush.common.checks import check_positive, checked_vector
+from dexpush.common.se2 import pose_error
+from dexpush.model.cgvmm import Contour
+from dexpush.model.shape import Shape
+from dexpush.problem.obstacles import clearance_jit, collides_jit
+from dexpush.problem.scene import Scene, obstacle_array
+from dexpush.problem.weights import CostWeights
+
+__all__ = ["SUCCESS_HEADING_DEG", "SUCCESS_POSITION_M", "Problem", "is_success"]
+
+#: the paper's success test (Sec. IV-B): position error below 8 mm ...
+SUCCESS_POSITION_M = 0.008
+#: ... and heading error below 3°
+SUCCESS_HEADING_DEG = 3.0
+
+
+def is_success(object_pose: object, goal: object, xp: Any = np, position_m: float = SUCCESS_POSITION_M,
+               heading_deg: float = SUCCESS_HEADING_DEG) -> Any:
+    """Position error < ``position_m`` and heading error < ``heading_deg`` (``xp`` as in
+    :func:`dexpush.common.se2.pose_error`)."""
+    pos, head = pose_error(object_pose, goal, xp)
+    return (pos < position_m) & (head < heading_deg)
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """Push ``shape`` to the pose ``goal`` (x, y, θ in the world frame) without touching the disc
+    ``obstacles`` (c_x, c_y, radius), at the cost of eq. (9) with ``weights``; success is a
+    position error below ``tolerance_m`` and a heading error below ``tolerance_deg``.
+
+    Derived once, on construction: ``contour`` (the inflated contour's table), ``scene`` (the
+    cost's view, world frame), ``origin`` and ``local_scene`` (the same in the controller's frame,
+    whose origin is the goal's position: float32 keeps its resolution wherever the world frame is).
+    """
+
+    shape: Shape
+    goal: tuple[float, float, float]
+    obstacles: tuple[tuple[float, float, float], ...] = ()
+    weights: CostWeights = field(default_factory=CostWeights)
+    tolerance_m: float = SUCCESS_POSITION_M
+    tolerance_deg: float = SUCCESS_HEADING_DEG
+    contour: Contour = field(init=False, repr=False)
+    scene: Scene = field(init=False, repr=False)
+    origin: np.ndarray = field(init=False, repr=False)
+    local_scene: Scene = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.shape, Shape):
+            raise TypeError(f"shape must be a dexpush.Shape, got {type(self.shape).__name__}")
+        if not isinstance(self.weights, CostWeights):
+            raise ValueError(f"weights must be a CostWeights, got {self.weights!r}")
+        goal = checked_vector("goal", self.goal, 3)
+        discs = obstacle_array(self.obstacles)
+        check_positive("tolerance_m", self.tolerance_m, "m")
+        check_positive("tolerance_deg", self.tolerance_deg, "degrees")
+        origin = np.array([goal[0], goal[1], 0.0])
+        put = object.__setattr__
+        put(self, "goal", tuple(float(v) for v in goal))
+        put(self, "obstacles", tuple(tuple(float(v) for v in d) for d in discs))
+        put(self, "contour", Contour.of(self.shape))
+        put(self, "scene", Scene.make(self.shape, goal, discs, self.weights))
+        put(self, "origin", origin)
+        put(self, "local_scene", Scene.make(self.shape, goal - origin, discs - origin * [1.0, 1.0, 0.0],
+                                            self.weights))
+
+    @property
+    def has_obstacles(self) -> bool:
+        return bool(self.obstacles)
+
+    def success(self, object_pose: object, xp: Any = np) -> Any:
+        """Whether ``object_pose`` (..., 3) is within the tolerances of the goal."""
+        return is_success(object_pose, self.scene.goal if xp is jnp else np.asarray(self.goal), xp,
+                          self.tolerance_m, self.tolerance_deg)
+
+    def collides(self, states: object) -> np.ndarray:
+        """(...,) bool: the object's footprint or the pusher touches an obstacle in states (..., 5)."""
+        x = jnp.asarray(states, jnp.float32)
+        if not self.obstacles:
+            return np.zeros(x.shape[:-1], bool)
+        return np.asarray(collides_jit(x, self.scene))
+
+    def clearance(self, states: object) -> np.ndarray:
+        """(...,) the smallest gap (m) between an obstacle and the object or the pusher; +inf without obstacles."""
+        x = jnp.asarray(states, jnp.float32)
+        if not self.obstacles:
+            return np.full(x.shape[:-1], np.inf)
+        return np.asarray(clearance_jit(x, self.scene))
+
+    def with_weights(self, weights: CostWeights) -> Problem:
+        """The same problem at the cost ``weights``."""
+        return Problem(self.shape, self.goal, self.obstacles, weights, self.tolerance_m, self.tolerance_deg)

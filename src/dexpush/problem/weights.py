@@ -1,0 +1,52 @@
+"""The gains and constants of the paper's cost, eq. (9) (defaults from its Table II), and the
+planner's obstacle margin (docs/controller.md#the-margin)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from dexpush.common.checks import check_nonnegative, check_positive
+
+__all__ = ["CostWeights"]
+
+
+@dataclass(frozen=True)
+class CostWeights:
+    """Gains and constants of eq. (9), defaults from the paper's Table II."""
+
+    q_f: float = 5000.0   #: terminal gain
+    q_r1: float = 100.0   #: running gain on the decoupled distance
+    q_r2: float = 1e4     #: gain of the pusher-proximity ReLU
+    c: float = 0.1        #: heading weight in the decoupled distance (m²)
+    r_s: float = 0.2      #: pusher may roam this far (m) from the object's reference for free
+    C_pen: float = 1e13   #: collision penalty
+    #: raise r_s to R_max + r_s_clearance (m) for objects whose inflated contour reaches
+    #: beyond r_s − r_s_clearance; None keeps r_s as given. See :meth:`Scene.make`.
+    r_s_clearance: float | None = 0.05
+    #: the planner keeps object and pusher this far (m) from obstacles: the collision test of the
+    #: cost (9e) uses discs grown by it, so a prediction error of up to this much at the obstacle does
+    #: not become a touch. A trial still fails only on a real touch (radius as given).
+    obstacle_margin_m: float = 0.01
+    #: measure the goal distance of d² round the obstacles (:func:`detour_length_sq`) instead of
+    #: straight through them (default); False is the paper's eq. (9) as written.
+    #: See docs/controller.md#going-round-obstacles-detour.
+    detour: bool = True
+    #: inside the margin, clear of the disc, a state costs C_margin per obstacle times its depth into the
+    #: margin as a fraction of it (:func:`obstacle_cost`); None charges C_pen there, as the discs grown by
+    #: the margin in (9e) would. See docs/controller.md#the-margin.
+    C_margin: float | None = 1e9
+
+    def __post_init__(self) -> None:
+        for name in ("q_f", "q_r1", "q_r2", "c"):
+            check_nonnegative(name, getattr(self, name))
+        if self.C_margin is not None:
+            check_positive("C_margin", self.C_margin, "or None")
+            if self.C_margin * 100 > self.C_pen:
+                raise ValueError(f"C_margin must be far below C_pen (a touch must cost more than 25 slots inside "
+                                 f"the margin): got C_margin={self.C_margin:g}, C_pen={self.C_pen:g}")
+        for name in ("r_s", "C_pen"):
+            check_positive(name, getattr(self, name))
+        check_nonnegative("obstacle_margin_m", self.obstacle_margin_m, "m")
+        if self.r_s_clearance is not None:
+            check_nonnegative("r_s_clearance", self.r_s_clearance, "m, or None")
+
