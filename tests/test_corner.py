@@ -14,8 +14,9 @@ from hypothesis import strategies as st
 from dexpush import Shape, contact_solution
 from dexpush.common.se2 import rotate
 from dexpush.model.cgvmm import CORNER, FREE, SLIDE_CCW, SLIDE_CW, STICK, Contour, integrate
+from dexpush.model.convex_pieces import convex_pieces
 from dexpush.model.corner import CORNER_REACH, CORNER_TOL
-from dexpush.model.polygons import concave_corners, convex_pieces
+from dexpush.model.radial_table import concave_corners
 from scenes import scenes_with_pusher_at
 
 

@@ -30,7 +30,8 @@ RANK = {name: i for i, layer in enumerate(LAYERS) for name in layer}
 #: lowest first, per sub-package: its modules (gcs/ is one unit: its own chain, one door)
 INNER = {
     "common": [{"fastmath", "se2", "checks", "files", "compile_cache", "xla_options", "interfaces", "progress"}],
-    "model": [{"polygons"}, {"shape", "corner"}, {"cgvmm"}],
+    "model": [{"polygons"}, {"radial_table", "convex_pieces"}, {"kernel"}, {"shape_file"}, {"shape", "corner"},
+              {"cgvmm"}],
     "problem": [{"weights"}, {"scene"}, {"obstacles"}, {"cost"}, {"problem"}],
     "control": [{"noise", "ukf"}, {"mppi", "proposals", "estimator"}, {"policy"}, {"controller"}],
     "world": [{"plants", "sensing"}],

@@ -14,7 +14,8 @@ from dexpush import Shape
 from dexpush.cli import main
 from dexpush.cli.config import RunConfig, build_plant, build_task, default_config, load_config, to_toml
 from dexpush.data.logs import read_log
-from dexpush.model.polygons import kernel_point, radial_table_polygons
+from dexpush.model.kernel import kernel_point
+from dexpush.model.radial_table import radial_table_polygons
 from dexpush.world.plants import ModelPlant
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "shapes"

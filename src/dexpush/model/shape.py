@@ -34,25 +34,21 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
 
 from dexpush.common.checks import check_positive
-from dexpush.common.files import read_toml
-from dexpush.model.polygons import (
-    as_polygon,
+from dexpush.model.kernel import kernel_point
+from dexpush.model.polygons import MAX_CORNERS, MAX_SHAPE_M, as_polygon, distance_to_polygons, inside_polygon, is_convex
+from dexpush.model.radial_table import (
     check_table_size,
     concave_corners,
-    distance_to_polygons,
     dradius_from_normal,
-    inside_polygon,
-    is_convex,
-    kernel_point,
     radial_table_polygons,
     table_azimuths,
 )
+from dexpush.model.shape_file import read_shape_file
 
 __all__ = ["Shape", "contour_lookup", "distance_to_polygons", "hermite_coefficients", "is_convex"]
 
@@ -78,7 +74,7 @@ class Shape:
         corners: (n_c, 6) concave corners of the inflated contour, rows
             ``[c_x, c_y, n1_x, n1_y, n2_x, n2_y]``: where a pusher centre touches two faces
             at once, with the two faces' inward unit normals
-            (:func:`dexpush.model.polygons.concave_corners`; none for convex shapes).
+            (:func:`dexpush.model.radial_table.concave_corners`; none for convex shapes).
     """
 
     name: str
@@ -167,7 +163,7 @@ class Shape:
 
         ``reference`` (in the corners' frame) becomes the body-frame origin: the point whose
         pose the controller steers to the goal. ``None`` chooses a point in the shape's kernel
-        near its area centroid (:func:`dexpush.model.polygons.kernel_point`); ``shape.origin`` says
+        near its area centroid (:func:`dexpush.model.kernel.kernel_point`); ``shape.origin`` says
         which.
         """
         if len(polygons) == 0:
@@ -175,6 +171,9 @@ class Shape:
         rho = _check_pusher_radius(pusher_radius)
         table_size = check_table_size(table_size)
         corners = [as_polygon(p, f"polygon {i}") for i, p in enumerate(polygons)]
+        if sum(map(len, corners)) > MAX_CORNERS:
+            raise ValueError(f"the polygons have {sum(map(len, corners))} corners together; a shape may have at most "
+                             f"{MAX_CORNERS} (simplify the outline, or drop repeated polygons)")
         ref = (kernel_point(corners, rho, table_size=table_size) if reference is None
                else np.asarray(reference, dtype=np.float64))
         if ref.shape != (2,) or not np.all(np.isfinite(ref)):
@@ -196,47 +195,21 @@ class Shape:
 
     @staticmethod
     def from_file(path: str | os.PathLike, *, table_size: int = 2048) -> Shape:
-        """A shape from a TOML file's ``[shape]`` table (lengths in metres)::
+        """A shape from a TOML file's ``[shape]`` table (lengths in metres;
+        :mod:`dexpush.model.shape_file` has the format and its checks)::
 
             [shape]
-            name = "L"                        # optional; default: the file's stem
             polygons = [[[0, 0], [0.2, 0], [0.2, 0.05], [0.05, 0.05], [0.05, 0.15], [0, 0.15]]]
-            reference = [0.04, 0.04]          # optional; default: a kernel point near the centroid
-            pusher_radius = 0.01              # optional; default 0.01
-            # or, instead of polygons:  ellipse = [0.10, 0.06]   (semi-axes, about its centre)
+            # or:  ellipse = [0.10, 0.06]
 
-        ``polygons`` is one or more simple polygons (any corner order, they may overlap).
-        Other tables in the file are ignored, so one file can hold a shape and a run's
-        settings. See ``docs/conventions.md#shapes``.
+        See ``docs/conventions.md#shapes``.
         """
-        path = Path(path)
-        doc = read_toml(path, "shape file")
-        table = doc.get("shape")
-        if not isinstance(table, dict):
-            raise ValueError(f"shape file {path}: no [shape] table (see Shape.from_file for the format)")
-        allowed = {"name", "polygons", "ellipse", "reference", "pusher_radius"}
-        unknown = sorted(set(table) - allowed)
-        if unknown:
-            raise ValueError(f"shape file {path}: unknown key {unknown[0]!r} in [shape]; "
-                             f"allowed: {', '.join(sorted(allowed))}")
-        if ("polygons" in table) == ("ellipse" in table):
-            raise ValueError(f"shape file {path}: give exactly one of `polygons` or `ellipse` in [shape]")
-        name = str(table.get("name", path.stem))
-        rho = table.get("pusher_radius", 0.01)
-        if "ellipse" in table:
-            ab = table["ellipse"]
-            if not (isinstance(ab, list) and len(ab) == 2):
-                raise ValueError(f"shape file {path}: ellipse must be [a, b] (semi-axes in metres), got {ab!r}")
-            if table.get("reference", [0, 0]) != [0, 0]:
-                raise ValueError(f"shape file {path}: an ellipse's reference is its centre; drop `reference`")
-            return Shape.ellipse(float(ab[0]), float(ab[1]), pusher_radius=rho, name=name, table_size=table_size)
-        polys = table["polygons"]
-        if not isinstance(polys, list) or not polys:
-            raise ValueError(f"shape file {path}: polygons must be a list of polygons [[[x, y], ...], ...]")
-        if all(isinstance(c, list) and len(c) == 2 and not isinstance(c[0], list) for c in polys):
-            polys = [polys]                      # one polygon given without the outer list
-        return Shape.union(polys, reference=table.get("reference"), pusher_radius=rho, name=name,
-                           table_size=table_size)
+        spec = read_shape_file(path)
+        if spec.ellipse is not None:
+            return Shape.ellipse(*spec.ellipse, pusher_radius=spec.pusher_radius, name=spec.name,
+                                 table_size=table_size)
+        return Shape.union(spec.polygons, reference=spec.reference, pusher_radius=spec.pusher_radius,
+                           name=spec.name, table_size=table_size)
 
     # ------------------------------------------------------------------ queries
     @property
@@ -325,13 +298,14 @@ def contour_lookup(coefficients: jnp.ndarray, phi: jnp.ndarray) -> tuple[jnp.nda
 # ---------------------------------------------------------------------- construction helpers
 def _check_positive(**values: float) -> None:
     for k, v in values.items():
-        check_positive(k, v, "a length in metres")
+        if check_positive(k, v, "a length in metres") > MAX_SHAPE_M:
+            raise ValueError(f"{k} must be at most {MAX_SHAPE_M:g} m (lengths are in metres), got {v!r}")
 
 
-def _check_pusher_radius(rho: float) -> float:
-    if not (np.isfinite(rho) and rho > 0):
-        raise ValueError(
-            f"pusher_radius must be > 0 (metres), got {rho!r}; for an ideal point pusher "
-            "use a small radius such as 1e-4")
-    return float(rho)
+def _check_pusher_radius(rho: object) -> float:
+    try:
+        return _check_positive(pusher_radius=rho) or float(rho)   # type: ignore[arg-type]
+    except ValueError:
+        raise ValueError(f"pusher_radius must be a number in (0, {MAX_SHAPE_M:g}] (metres), got {rho!r}; for an "
+                         "ideal point pusher use a small radius such as 1e-4") from None
 

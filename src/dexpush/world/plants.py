@@ -24,7 +24,8 @@ import numpy as np
 from dexpush.common.checks import check_params, check_positive, checked_vector
 from dexpush.common.interfaces import Observation
 from dexpush.model.cgvmm import LAMBDA_TRUE, Contour, contact_gap, integrate
-from dexpush.model.polygons import convex_hull, convex_pieces, distance_to_polygons
+from dexpush.model.convex_pieces import convex_pieces
+from dexpush.model.polygons import convex_hull, distance_to_polygons
 from dexpush.model.shape import Shape
 
 __all__ = ["ModelPlant", "PhysicsPlant", "PhysicsSettings"]
@@ -218,7 +219,7 @@ MAX_PRISMS = 64
 def convex_prisms(shape: Shape) -> list[np.ndarray]:
     """The footprint as convex pieces for MuJoCo, which collides meshes by their convex hulls.
 
-    Convex polygons are kept whole; a non-convex one is split (:func:`dexpush.model.polygons.convex_pieces`),
+    Convex polygons are kept whole; a non-convex one is split (:func:`dexpush.model.convex_pieces.convex_pieces`),
     never replaced by its hull. A footprint needing more than :data:`MAX_PRISMS` pieces is refused.
     """
     pieces = [piece for poly in shape.polygons for piece in convex_pieces(poly)]
