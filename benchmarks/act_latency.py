@@ -20,7 +20,7 @@ import numpy as np
 
 import dexpush
 from dexpush.common.interfaces import Observation
-from dexpush.world.plants import ModelPlant
+from dexpush.world.model_plant import ModelPlant
 
 
 def main() -> None:

@@ -29,7 +29,8 @@ import numpy as np
 from dexpush import Shape
 from dexpush.common.se2 import rotate, wrap_angle
 from dexpush.model.cgvmm import Contour
-from dexpush.world.plants import ModelPlant, PhysicsPlant, PhysicsSettings, _support_points
+from dexpush.world.model_plant import ModelPlant
+from dexpush.world.physics_plant import PhysicsPlant, PhysicsSettings, _support_points
 
 
 def physics_lambda(shape: Shape, settings: PhysicsSettings) -> np.ndarray:

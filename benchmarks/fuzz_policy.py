@@ -28,7 +28,7 @@ from dexpush.control.mppi import MPPISettings
 from dexpush.experiments.registry import make_shape
 from dexpush.model.cgvmm import Contour
 from dexpush.problem.scene import Scene
-from dexpush.world.plants import ModelPlant
+from dexpush.world.model_plant import ModelPlant
 
 
 def clean_sequences(shape_name: str, lanes: int, steps: int, seed: int) -> np.ndarray:

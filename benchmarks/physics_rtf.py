@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 from dexpush.experiments.benchmark import SHAPES, make_shape
-from dexpush.world.plants import PhysicsPlant
+from dexpush.world.physics_plant import PhysicsPlant
 
 
 def main() -> None:

@@ -21,7 +21,7 @@ import dexpush
 from dexpush.experiments.scenarios import Task
 from dexpush.model.cgvmm import MODE_NAMES
 from dexpush.viz import plot_episode
-from dexpush.world.plants import ModelPlant
+from dexpush.world.model_plant import ModelPlant
 
 
 def main() -> None:

@@ -24,7 +24,8 @@ import numpy as np
 
 import dexpush
 from dexpush.problem.problem import is_success
-from dexpush.world.plants import ModelPlant, PhysicsPlant
+from dexpush.world.model_plant import ModelPlant
+from dexpush.world.physics_plant import PhysicsPlant
 from dexpush.world.sensing import Camera
 
 RATE_HZ = 15.0                     # the camera's rate: one command per frame period

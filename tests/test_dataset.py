@@ -11,8 +11,9 @@ import h5py
 import numpy as np
 import pytest
 
-from dexpush.data.mit import OBJECTS, load_folder, load_push, validate
-from dexpush.world.plants import ModelPlant
+from dexpush.data.mit import OBJECTS, load_folder, load_push
+from dexpush.data.validation import validate
+from dexpush.world.model_plant import ModelPlant
 
 TRUE_LAMBDA = (30.0, 0.0, 0.0)
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from dexpush import Shape
-from dexpush.world.plants import PhysicsPlant, PhysicsSettings, _support_points
+from dexpush.world.physics_plant import PhysicsPlant, PhysicsSettings, _support_points
 
 pytest.importorskip("mujoco")
 
@@ -82,7 +82,7 @@ def test_a_concave_polygon_is_simulated_as_itself_not_its_hull(name: str, corner
                                                                  pusher: tuple, pieces: int) -> None:
     """A non-convex polygon becomes convex prisms that tile it: the pusher moves freely in the notch
     (MuJoCo would otherwise collide it with the hull) and pushes the object once it reaches the faces."""
-    from dexpush.world.plants import convex_prisms
+    from dexpush.world.physics_plant import convex_prisms
 
     shape = Shape.polygon(corners, reference=reference, name=name)
     assert len(convex_prisms(shape)) == pieces

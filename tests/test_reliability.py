@@ -19,7 +19,7 @@ from dexpush.control.estimator import UKFSettings, estimator_init, estimator_obs
 from dexpush.control.ukf import UKFState
 from dexpush.model.cgvmm import Contour
 from dexpush.problem.scene import Scene
-from dexpush.world.plants import ModelPlant
+from dexpush.world.model_plant import ModelPlant
 
 SHAPE = dexpush.Shape.rectangle()
 SETTINGS = ControllerSettings(estimate_params=True, mppi=dexpush.MPPISettings(num_samples=128))
@@ -250,7 +250,7 @@ def test_results_do_not_depend_on_where_the_world_origin_is() -> None:
 
 
 def test_the_physics_plant_refuses_an_outline_too_ragged_to_simulate() -> None:
-    from dexpush.world.plants import MAX_PRISMS, PhysicsPlant
+    from dexpush.world.physics_plant import MAX_PRISMS, PhysicsPlant
 
     t = np.linspace(0, 2 * np.pi, 2 * 80, endpoint=False)                   # a star with 80 points
     star = np.stack([np.cos(t), np.sin(t)], -1) * np.where(np.arange(160) % 2, 0.07, 0.1)[:, None]

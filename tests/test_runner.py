@@ -9,7 +9,7 @@ import dexpush
 from dexpush import Observation, PushingController, Shape, run_episode, run_loop
 from dexpush.common.interfaces import Controller, Plant, check_plant
 from dexpush.experiments.scenarios import Task
-from dexpush.world.plants import ModelPlant
+from dexpush.world.model_plant import ModelPlant
 from dexpush.world.sensing import SensorSettings
 
 

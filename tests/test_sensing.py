@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from dexpush import Shape
-from dexpush.world.plants import ModelPlant
+from dexpush.world.model_plant import ModelPlant
 from dexpush.world.sensing import Camera, SensorSettings
 
 

@@ -11,7 +11,7 @@ from dexpush.control.controller import ControllerSettings, PushingController
 from dexpush.experiments.registry import make_shape
 from dexpush.experiments.scenarios import get_task, initial_conditions
 from dexpush.experiments.simulate import TrialSpec, simulate
-from dexpush.world.plants import ModelPlant
+from dexpush.world.model_plant import ModelPlant
 
 UNKNOWN = (15.0, 0.0, 0.0)
 

@@ -17,7 +17,7 @@ from dexpush import Shape
 from dexpush.control.estimator import UKFSettings, estimator_init, estimator_observe, rate_limited
 from dexpush.control.ukf import SigmaPoints, UKFState, ukf_update
 from dexpush.model.cgvmm import Contour
-from dexpush.world.plants import ModelPlant
+from dexpush.world.model_plant import ModelPlant
 
 TRUE = np.array([25.0, -0.01, 0.02])
 

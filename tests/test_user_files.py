@@ -16,7 +16,7 @@ from dexpush.cli.config import RunConfig, build_plant, build_task, default_confi
 from dexpush.data.logs import read_log
 from dexpush.model.kernel import kernel_point
 from dexpush.model.radial_table import radial_table_polygons
-from dexpush.world.plants import ModelPlant
+from dexpush.world.model_plant import ModelPlant
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "shapes"
 L_BLOCK = [[0.0, 0.0], [0.20, 0.0], [0.20, 0.05], [0.05, 0.05], [0.05, 0.15], [0.0, 0.15]]

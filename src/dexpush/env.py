@@ -52,7 +52,7 @@ from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task, initial_con
 from dexpush.model.shape import Shape
 from dexpush.problem.problem import SUCCESS_HEADING_DEG, SUCCESS_POSITION_M, Problem, is_success
 from dexpush.problem.weights import CostWeights
-from dexpush.world.plants import ModelPlant
+from dexpush.world.model_plant import ModelPlant
 from dexpush.world.sensing import Camera, SensorSettings
 
 __all__ = ["PushEnv", "VectorPushEnv"]

@@ -44,7 +44,8 @@ from dexpush.experiments.registry import PARAMS, PLANTS, SHAPES, check_condition
 from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task
 from dexpush.model.cgvmm import LAMBDA_TRUE
 from dexpush.model.shape import Shape
-from dexpush.world.plants import ModelPlant, PhysicsPlant, PhysicsSettings
+from dexpush.world.model_plant import ModelPlant
+from dexpush.world.physics_plant import PhysicsPlant, PhysicsSettings
 from dexpush.world.sensing import SensorSettings
 
 __all__ = ["RunConfig", "RunSettings", "build_plant", "build_task", "default_config", "lambda_pred", "load_config",

@@ -120,7 +120,8 @@ def _cmd_validate(args: argparse.Namespace) -> dict:
     import matplotlib.pyplot as plt
 
     from dexpush.common.files import write_json_atomic
-    from dexpush.data.mit import load_folder, validate
+    from dexpush.data.mit import load_folder
+    from dexpush.data.validation import validate
     from dexpush.viz import plot_confusion, plot_mode_decisions
 
     if args.estimate_mu and not args.online:

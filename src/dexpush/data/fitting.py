@@ -1,7 +1,7 @@
 """Fitting λ (and μ_c) to recorded pushes: the residuals, the fits and their uncertainty.
 
-A recorded push (:class:`Push`) is object poses and pusher positions on a uniform 25 Hz
-grid (:func:`resample` makes one from any timed stream). Per sample k, with x_k = [q_k, p_k]
+A recorded push (:class:`dexpush.data.push.Push`) is object poses and pusher positions on a uniform 25 Hz
+grid (:func:`dexpush.data.push.resample` makes one from any timed stream). Per sample k, with x_k = [q_k, p_k]
 and the pusher velocity u_k = (p_{k+1} − p_k)/Δt, the one-step residual is the C-GVMM's
 prediction from x_k with u_k over Δt (:func:`dexpush.model.cgvmm.integrate`, 10 Euler substeps)
 minus the recorded q_{k+1}, as [Δx, Δy, c·Δθ] with c = 0.05 m/rad (a 5-cm lever arm).
@@ -26,105 +26,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.common.se2 import pose_error, wrap_angle
-from dexpush.model.cgvmm import FREE, SLIDE_CCW, SLIDE_CW, STICK, Contour, integrate, replay
+from dexpush.data.labelling import Samples, contact_geometry, samples
+from dexpush.data.push import RATE_HZ, Push
+from dexpush.model.cgvmm import FREE, Contour, integrate, replay
 from dexpush.model.shape import Shape
 
-__all__ = ["RATE_HZ", "FitResult", "LambdaFit", "Push", "Samples", "fit_beta", "fit_lambda", "fit_pushes",
-           "one_step", "replay_push", "resample", "residuals", "samples", "snap_contact", "whole_push_errors"]
-
-RATE_HZ = 25.0
-_RAW_HZ = 250.0
-
-
-@dataclass
-class Push:
-    """One push resampled to 25 Hz: time (T,), object pose (T, 3), pusher centre (T, 2)."""
-
-    name: str
-    shape: str
-    time: np.ndarray
-    object_pose: np.ndarray
-    pusher_xy: np.ndarray
-    meta: dict = field(default_factory=dict)
-
-    @property
-    def states(self) -> np.ndarray:
-        return np.concatenate([self.object_pose, self.pusher_xy], -1)
-
-
-def resample(t_raw: np.ndarray, y: np.ndarray, t0: float, t1: float) -> tuple[np.ndarray, np.ndarray]:
-    """Uniform 250 Hz, zero-phase Gaussian low-pass (σ = 20 ms), every 10th sample (25 Hz).
-
-    Times are taken relative to t0 first: Unix timestamps (~1.5e9 s) lose the sub-µs
-    resolution a uniform grid needs.
-    """
-    grid = np.arange(int(np.floor((t1 - t0) * _RAW_HZ)) + 1) / _RAW_HZ
-    yi = np.stack([np.interp(grid, t_raw - t0, y[:, j]) for j in range(y.shape[1])], -1)
-    sigma = 0.020 * _RAW_HZ
-    k = np.arange(-int(4 * sigma), int(4 * sigma) + 1)
-    w = np.exp(-0.5 * (k / sigma) ** 2)
-    w /= w.sum()
-    pad = len(k) // 2
-    padded = np.concatenate([np.repeat(yi[:1], pad, 0), yi, np.repeat(yi[-1:], pad, 0)])
-    ys = np.stack([np.convolve(padded[:, j], w, mode="valid") for j in range(y.shape[1])], -1)
-    step = round(_RAW_HZ / RATE_HZ)
-    return grid[::step], ys[::step]
-
-
-@dataclass
-class Samples:
-    """Per-sample arrays of one object's pushes, concatenated (numpy)."""
-
-    states: np.ndarray        #: (S, 5) x_k
-    inputs: np.ndarray        #: (S, 2) u_k
-    next_pose: np.ndarray     #: (S, 3) q_{k+1}
-    observed: np.ndarray      #: (S,) observed mode
-    push_index: np.ndarray    #: (S,) which push
-
-
-def _contact_geometry(contour: Contour, X: np.ndarray) -> tuple[np.ndarray, ...]:
-    """For observed states X (T, 5): unwrapped φ_c, R(φ_c), R'(φ_c), the gap |p| − R, and
-    the pusher centres moved radially onto the contour (the tip/Vicon offset removed)."""
-    rel = X[:, 3:] - X[:, :2]
-    c, s = np.cos(X[:, 2]), np.sin(X[:, 2])
-    body = np.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
-    phi = np.unwrap(np.arctan2(body[:, 1], body[:, 0]))
-    R, dR = (np.asarray(a, np.float64) for a in contour.lookup(jnp.asarray(wrap_angle(phi))))
-    dist = np.linalg.norm(body, axis=-1)
-    on_contour = X[:, :2] + (R / dist)[:, None] * rel
-    return phi, R, dR, dist - R, on_contour
-
-
-def samples(pushes: list[Push], shape: Shape, separation_mm: float, stick_ratio: float,
-             min_speed_mm_s: float) -> Samples:
-    contour = Contour.of(shape)
-    dt = 1.0 / RATE_HZ
-    parts = []
-    for i, p in enumerate(pushes):
-        X = p.states.copy()
-        U = np.diff(p.pusher_xy, axis=0) / dt
-        phi, R, dR, gap, on_contour = _contact_geometry(contour, X)
-        contact = gap <= separation_mm / 1000
-        X[contact, 3:] = on_contour[contact]   # observed contact: pusher on the contour (as snap_contact)
-        slide = np.hypot(R, dR)[:-1] * np.diff(phi) / dt        # contact-point speed along the contour
-        speed = np.linalg.norm(U, axis=-1)
-        obs = np.where(~(contact[:-1] & contact[1:]), FREE,
-                       np.where(np.abs(slide) < stick_ratio * speed, STICK,
-                                np.where(slide > 0, SLIDE_CCW, SLIDE_CW)))
-        moving = speed * 1000 >= min_speed_mm_s
-        parts.append((X[:-1][moving], U[moving], p.object_pose[1:][moving], obs[moving],
-                      np.full(int(moving.sum()), i)))
-    return Samples(*(np.concatenate([pp[j] for pp in parts]) for j in range(5)))
-
-
-def snap_contact(contour: Contour, X: np.ndarray, separation_mm: float) -> np.ndarray:
-    """Observed states X (T, 5) with every pusher within ``separation_mm`` of the contour (or inside it)
-    moved radially onto it: the tip/Vicon calibration offset removed, as :func:`samples` does."""
-    X = np.array(X, np.float64)
-    _, _, _, gap, on_contour = _contact_geometry(contour, X)
-    contact = gap <= separation_mm / 1000
-    X[contact, 3:] = on_contour[contact]
-    return X
+__all__ = ["FitResult", "LambdaFit", "fit_beta", "fit_lambda", "fit_pushes", "one_step", "replay_push", "residuals",
+           "whole_push_errors"]
 
 
 def one_step(contour: Contour, states: np.ndarray, inputs: np.ndarray, lam: np.ndarray,
@@ -234,7 +142,7 @@ def whole_push_errors(contour: Contour, pushes: list[Push], lam: np.ndarray, mu:
     pos, head = [], []
     for p in pushes:
         x0 = p.states[0].copy()
-        x0[3:] = _contact_geometry(contour, x0[None])[4][0]   # pushes start in contact (dataset README)
+        x0[3:] = contact_geometry(contour, x0[None])[4][0]   # pushes start in contact (dataset README)
         U = np.diff(p.pusher_xy, axis=0) * RATE_HZ
         x = _replay_final(contour, jnp.asarray(x0, jnp.float32), jnp.asarray(U, jnp.float32),
                           jnp.asarray(lam, jnp.float32), jnp.float32(mu))
@@ -253,7 +161,7 @@ def replay_push(contour: Contour, push: Push, lam: np.ndarray, mu: float) -> np.
     """The model's open-loop replay (T, 5) of a whole push, from its first sample with the pusher put on
     the contour, driven by the recorded pusher motion (the trajectory behind :func:`whole_push_errors`)."""
     x0 = push.states[0].copy()
-    x0[3:] = _contact_geometry(contour, x0[None])[4][0]
+    x0[3:] = contact_geometry(contour, x0[None])[4][0]
     U = np.diff(push.pusher_xy, axis=0) * RATE_HZ
     X = _replay_all(contour, jnp.asarray(x0, jnp.float32), jnp.asarray(U, jnp.float32),
                     jnp.asarray(lam, jnp.float32), jnp.float32(mu))

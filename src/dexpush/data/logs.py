@@ -13,7 +13,7 @@ radians and seconds, in any fixed world frame:
 
 A folder reads every such file in it. Each push is sorted by time, cleared of repeated
 timestamps and non-finite rows, its heading unwrapped, and resampled to 25 Hz with the
-MIT loader's zero-phase low-pass (:func:`dexpush.data.fitting.resample`). The log's rate may be
+MIT loader's zero-phase low-pass (:func:`dexpush.data.push.resample`). The log's rate may be
 anything from 25 Hz up; a push needs at least 0.5 s.
 """
 
@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dexpush.data.fitting import Push, resample
 from dexpush.data.mit import load_push
+from dexpush.data.push import Push, resample
 
 __all__ = ["COLUMNS", "read_log"]
 

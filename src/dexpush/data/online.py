@@ -5,7 +5,7 @@ same object again and again would see them: the UKF of :mod:`dexpush.control.est
 controller's settings, observes every 25 Hz sample; its window is emptied between pushes (the
 replay needs consecutive frames) and its state carries over to the next push; λ_pred follows
 the filter's mean within the rate limit, as :func:`dexpush.control.policy.estimate_step` does. As
-in :func:`dexpush.data.mit.validate`, a pusher observed within ``separation_mm`` of the contour
+in :func:`dexpush.data.validation.validate`, a pusher observed within ``separation_mm`` of the contour
 is put onto it (the tip/Vicon calibration offset).
 
 Reported per object (``docs/validation.md#online-estimation``):
@@ -31,7 +31,9 @@ import numpy as np
 
 from dexpush.common.se2 import wrap_angle
 from dexpush.control.estimator import EstimatorState, UKFSettings, estimator_init, estimator_observe, rate_limited
-from dexpush.data.fitting import RATE_HZ, Push, one_step, samples, snap_contact, whole_push_errors
+from dexpush.data.fitting import one_step, whole_push_errors
+from dexpush.data.labelling import samples, snap_contact
+from dexpush.data.push import RATE_HZ, Push
 from dexpush.model.cgvmm import Contour
 from dexpush.model.shape import Shape
 

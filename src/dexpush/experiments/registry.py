@@ -16,7 +16,8 @@ from dexpush.common.interfaces import Plant
 from dexpush.experiments.methods import get_method
 from dexpush.model.cgvmm import LAMBDA_TRUE
 from dexpush.model.shape import Shape
-from dexpush.world.plants import ModelPlant, PhysicsPlant, PhysicsSettings
+from dexpush.world.model_plant import ModelPlant
+from dexpush.world.physics_plant import PhysicsPlant, PhysicsSettings
 from dexpush.world.sensing import SensorSettings
 
 __all__ = ["PARAMS", "PLANTS", "SHAPES", "check_condition", "make_plant", "make_shape", "world_sensor"]
@@ -37,7 +38,7 @@ def make_shape(name: str) -> Shape:
 
 def make_plant(name: str, shape: Shape, seed: int = 0) -> Plant:
     """The world of an experiment: ``model`` (C-GVMM with λ_true), ``physics`` (MuJoCo), or
-    ``physics-random``: MuJoCo in world ``seed`` of :meth:`dexpush.world.plants.PhysicsSettings.randomized`."""
+    ``physics-random``: MuJoCo in world ``seed`` of :meth:`dexpush.world.physics_plant.PhysicsSettings.randomized`."""
     if name == "model":
         return ModelPlant(shape)
     if name == "physics":

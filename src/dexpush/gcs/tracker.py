@@ -85,7 +85,7 @@ class GCSTracker:
         """The pusher velocity for the next control period from what the sensor delivered, if anything.
 
         ``frame`` is an observation with ``.object_pose`` (3,) and ``.pusher_xy`` (2,) (a
-        :class:`dexpush.world.plants.Observation` or :class:`dexpush.world.sensing.Frame`): the result is
+        :class:`dexpush.common.interfaces.Observation` or :class:`dexpush.world.sensing.Frame`): the result is
         exactly :meth:`command` on it. ``None`` means no new observation arrived: the last
         frame seen is used again (``ValueError`` if no frame came since construction or
         :meth:`reset`). ``frame_period`` is accepted for symmetry with
