@@ -15,7 +15,7 @@ compares
 
 It prints the error's percentiles per band of shift, and how often the error exceeds a margin
 m₀ + a·shift for a few m₀ and gains a: the measurement behind
-``ControllerSettings.prediction_margin_gain`` (docs/controller.md#the-margin-grows-with-the-prediction).
+``ControllerSettings.prediction_margin.gain`` (docs/controller.md#the-margin-grows-with-the-prediction).
 ``--gain`` is the gain the trials run with. Tune on seeds ≥ 1000 (the benchmark reports 0–29).
 """
 
@@ -30,6 +30,7 @@ import numpy as np
 from dexpush.cli.arguments import seed_list
 from dexpush.common.se2 import footprint_shift
 from dexpush.control.controller import ControllerSettings
+from dexpush.control.settings import PredictionMarginSettings
 from dexpush.experiments.methods import get_method
 from dexpush.experiments.registry import PARAMS, make_plant, make_shape, world_sensor
 from dexpush.experiments.runner import run_loop
@@ -59,12 +60,12 @@ def main() -> None:
     ap.add_argument("--seeds", type=seed_list, default=seed_list("1000-1007"))
     ap.add_argument("--shape", default="tee")
     ap.add_argument("--task", default="III")
-    ap.add_argument("--gain", type=float, default=0.0, help="ControllerSettings.prediction_margin_gain of the trials")
+    ap.add_argument("--gain", type=float, default=0.0, help="ControllerSettings.prediction_margin.gain of the trials")
     args = ap.parse_args()
 
     task, shape = get_task(args.task), make_shape(args.shape)
     corners = np.asarray(shape.edges[0])
-    settings = ControllerSettings(prediction_margin_gain=args.gain)
+    settings = ControllerSettings(prediction_margin=PredictionMarginSettings(gain=args.gain))
     shifts, errors = [], []
     for seed in args.seeds:
         sensor = SensorSettings.realistic()

@@ -16,6 +16,7 @@ import pytest
 from dexpush.cli import main
 from dexpush.control.controller import ControllerSettings
 from dexpush.control.mppi import MPPISettings
+from dexpush.control.settings import EndgameSettings, PredictionMarginSettings, StallSettings
 from dexpush.experiments.benchmark import run_benchmark
 from dexpush.experiments.records import summarize
 from dexpush.experiments.tables import write_tables
@@ -57,24 +58,28 @@ def test_a_folder_refuses_runs_with_other_settings(tmp_path: Path) -> None:
         run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=3, lanes=2, progress=False)
     assert main(["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi",
                  "--seeds", "0", "--max-steps", "9", "--lanes", "2", "--quiet", "--out", str(tmp_path)]) == 2
-    # a folder started before an option existed was made without it: it is adopted with the option off
-    # (the stall watch and the detour are on by default now), and with a newer setting's default
-    for key in ("stall_after_s", "stall_backoff", "endgame_temperature", "prediction_margin_gain"):
-        del saved["settings"]["controller"][key]
+    # an older dexpush wrote the controller's settings as one flat table, without the options it did not have
+    # yet: such a folder is read in today's groups, with each missing option off (the stall watch and the
+    # detour are on by default now) and a newer setting at its default
+    controller = saved["settings"]["controller"]
+    for group in ("stall", "endgame", "proposals", "prediction_margin"):
+        del controller[group]
+    controller["stall_backoff"] = 2.0
     for key in ("detour", "C_margin"):
         del saved["settings"]["controller"]["weights"][key]
     del saved["settings"]["controller"]["mppi"]["update"]
     (tmp_path / "settings.json").write_text(json.dumps(saved))
-    with pytest.raises(ValueError, match=r"endgame_temperature: None there, 0.005 now; controller.mppi.update: "
-                                         r"'clipped' there, 'sampled' now; controller.prediction_margin_gain: "
+    with pytest.raises(ValueError, match=r"endgame.temperature: None there, 0.005 now; controller.mppi.update: "
+                                         r"'clipped' there, 'sampled' now; controller.prediction_margin.gain: "
                                          r"0.0 there, 0.5 now; …"):
         run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
                       figures=False)
     run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
                   figures=False, settings=ControllerSettings(weights=CostWeights(detour=False, C_margin=None),
-                                                             stall_after_s=None, endgame_temperature=None,
+                                                             stall=StallSettings(after_s=None),
+                                                             endgame=EndgameSettings(temperature=None),
                                                              mppi=MPPISettings(update="clipped"),
-                                                             prediction_margin_gain=0.0))
+                                                             prediction_margin=PredictionMarginSettings(gain=0.0)))
 
 
 def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path: Path) -> None:
@@ -85,11 +90,11 @@ def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path
                  "--samples", "64", "--no-figures", "--quiet",
                  "--out", str(tmp_path)]) == 0
     controller = json.loads((tmp_path / "settings.json").read_text())["settings"]["controller"]
-    assert controller["weights"]["detour"] is False and controller["stall_after_s"] is None
-    assert controller["mppi"]["temperature"] == 0.05 and controller["endgame_temperature"] is None
+    assert controller["weights"]["detour"] is False and controller["stall"]["after_s"] is None
+    assert controller["mppi"]["temperature"] == 0.05 and controller["endgame"]["temperature"] is None
     assert controller["weights"]["C_margin"] is None
-    assert controller["mppi"]["update"] == "clipped" and controller["contact_proposals"] == 4
-    assert controller["prediction_margin_gain"] == 0.25 and controller["stall_horizon_scale"] == 1.5
+    assert controller["mppi"]["update"] == "clipped" and controller["proposals"]["count"] == 4
+    assert controller["prediction_margin"]["gain"] == 0.25 and controller["stall"]["horizon_scale"] == 1.5
     assert controller["mppi"]["num_samples"] == 64
     command = ("--no-detour --stall-after off --temperature 0.05 --endgame-temperature off --margin-cost off "
                "--contact-proposals 4 --mppi-update clipped --prediction-margin 0.25 --stall-horizon 1.5 --samples 64")

@@ -14,6 +14,7 @@ from hypothesis import settings as hypothesis_settings
 from hypothesis import strategies as st
 
 from dexpush import Shape
+from dexpush.control.settings import PredictionMarginSettings, StallSettings
 from dexpush.problem.cost import detour_length_sq, running_cost, terminal_cost
 from dexpush.problem.scene import Scene
 from dexpush.problem.weights import CostWeights
@@ -237,7 +238,7 @@ def test_from_inside_the_margin_the_plan_never_comes_nearer() -> None:
 
     shape = Shape.rectangle()
     contour = Contour.of(shape)
-    graded = ControllerSettings(stall_after_s=None)
+    graded = ControllerSettings(stall=StallSettings(after_s=None))
     binary = dataclasses.replace(graded, weights=CostWeights(C_margin=None))
     scene = Scene.make(shape, (0.6, 0.0, 0.0), ((0.30, 0.0, 0.05),), graded.weights)
     x = jnp.asarray([0.30 - 0.10 - 0.05 - 0.004, -0.03, 0.0, 0.30 - 0.155 - 0.11, -0.03], jnp.float32)
@@ -284,7 +285,7 @@ def test_without_obstacles_the_margin_settings_leave_the_plan_bit_identical() ->
 
     shape = Shape.tee()
     contour = Contour.of(shape)
-    base = ControllerSettings(stall_after_s=None)
+    base = ControllerSettings(stall=StallSettings(after_s=None))
     x = jnp.asarray([0.0, 0.0, 0.1, -0.03, -0.2], jnp.float32)
     plans = []
     for w in (CostWeights(), CostWeights(C_margin=None), CostWeights(obstacle_margin_m=0.03, C_margin=1e8)):
@@ -344,7 +345,6 @@ def test_a_plan_from_a_predicted_state_keeps_the_grown_margin() -> None:
     observed state (predicted 0 m) the plan closes in on the 1-cm margin; from a state predicted
     1.5 cm on from its frame the margin is 2.5 cm, more than the start's clearance, so the plan
     comes no nearer than it started."""
-    import dataclasses
     import functools
 
     from dexpush.control.controller import ControllerSettings, plan_step, policy_init
@@ -353,7 +353,8 @@ def test_a_plan_from_a_predicted_state_keeps_the_grown_margin() -> None:
 
     shape = Shape.rectangle()
     contour = Contour.of(shape)
-    settings = dataclasses.replace(ControllerSettings(stall_after_s=None), prediction_margin_gain=1.0)
+    settings = ControllerSettings(stall=StallSettings(after_s=None),
+                                  prediction_margin=PredictionMarginSettings(gain=1.0))
     scene = Scene.make(shape, (0.6, 0.0, 0.0), ((0.30, 0.0, 0.05),), settings.weights)
     x = jnp.asarray([0.30 - 0.10 - 0.05 - 0.016, -0.03, 0.0, 0.30 - 0.155 - 0.11 - 0.012, -0.03], jnp.float32)
     start = float(clearance(x, scene))

@@ -29,16 +29,17 @@ RANK = {name: i for i, layer in enumerate(LAYERS) for name in layer}
 
 #: lowest first, per sub-package: its modules (gcs/ is one unit: its own chain, one door)
 INNER = {
-    "common": [{"fastmath", "se2", "checks", "files", "compile_cache", "xla_options", "interfaces", "progress"}],
+    "common": [{"fastmath", "se2", "checks", "files", "compile_cache", "xla_options", "interfaces", "progress",
+                "settings"}],
     "model": [{"polygons"}, {"radial_table", "convex_pieces"}, {"kernel"}, {"shape_file"}, {"shape", "corner"},
               {"cgvmm"}],
     "problem": [{"weights"}, {"scene"}, {"obstacles"}, {"cost"}, {"problem"}],
-    "control": [{"noise", "ukf"}, {"mppi", "proposals", "estimator"}, {"policy"}, {"controller"}],
+    "control": [{"noise", "ukf"}, {"mppi", "proposals", "estimator"}, {"settings"}, {"policy"}, {"controller"}],
     "world": [{"model_plant", "sensing"}, {"physics_plant"}],
     "data": [{"push"}, {"labelling"}, {"fitting"}, {"mit"}, {"validation", "logs", "online"}],
     "experiments": [{"scenarios"}, {"simulate"}, {"methods"}, {"registry"}, {"records"}, {"runner"}, {"tables"},
-                    {"benchmark"}],
-    "cli": [{"arguments"}, {"config", "planner_flags"}, {"main"}],
+                    {"results_folder"}, {"benchmark"}],
+    "cli": [{"arguments", "settings_file"}, {"config", "flags"}, {"commands"}, {"main"}],
 }
 
 

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 import dexpush
 from dexpush.common.interfaces import Observation
 from dexpush.control.controller import ControllerSettings, PushingController, _estimate_jit, policy_init, policy_step
-from dexpush.control.estimator import UKFSettings, estimator_init, estimator_observe
+from dexpush.control.estimator import FrameGate, UKFSettings, estimator_init, estimator_observe
 from dexpush.control.ukf import UKFState
 from dexpush.model.cgvmm import Contour
 from dexpush.problem.scene import Scene
@@ -86,7 +86,7 @@ def test_one_far_off_frame_is_rejected_and_leaves_the_estimate_alone() -> None:
     u = ctrl.command(glitch[:3], glitch[3:])
     assert ctrl.rejected_frames == 1 and ctrl.estimator_resets == 0
     # the filter never saw it: no update, only the relaxation toward the prior of a frame without information
-    relaxed = prior + (before - prior) * np.exp(-SETTINGS.mppi.control_period / SETTINGS.ukf.prior_time_s)
+    relaxed = prior + (before - prior) * np.exp(-SETTINGS.mppi.control_period / SETTINGS.ukf.prior_pull.time_s)
     np.testing.assert_allclose(np.asarray(ctrl.state.estimator.filter.mean), relaxed, rtol=1e-5)
     assert int(ctrl.state.estimator.count) == 0
     assert np.all(np.isfinite(u))
@@ -128,7 +128,7 @@ def test_act_takes_any_frame_period_without_recompiling() -> None:
     (lambda: UKFSettings(meas_pos_std=float("inf")), "meas_pos_std"),
     (lambda: UKFSettings(process_std=(0.5, float("nan"), 5e-4)), "process_std"),
     (lambda: UKFSettings(alpha=float("nan")), "alpha"),
-    (lambda: UKFSettings(gate_speed_m_s=0.0), "gate_speed_m_s"),
+    (lambda: UKFSettings(gate=FrameGate(speed_m_s=0.0)), "gate.speed_m_s"),
     (lambda: ControllerSettings(weights=dexpush.control.controller.CostWeights(q_f=float("nan"))), "q_f"),
     (lambda: dexpush.control.controller.CostWeights(r_s=-0.2), "r_s"),
     (lambda: PushingController(SHAPE, (0, 0, 0), params=(25, 0, 0), seed=float("nan")), "seed"),

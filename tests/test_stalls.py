@@ -16,13 +16,14 @@ from hypothesis import strategies as st
 from dexpush import Shape
 from dexpush.control.controller import ControllerSettings, plan_step, policy_init, watch_progress
 from dexpush.control.mppi import slot_durations
+from dexpush.control.settings import EndgameSettings, StallSettings
 from dexpush.model.cgvmm import LAMBDA_TRUE, Contour
 from dexpush.problem.scene import Scene
 
 SHAPE = Shape.rectangle()
 SCENE = Scene.make(SHAPE, (0.6, 0.0, 0.0))
 CONTOUR = Contour.of(SHAPE)
-WATCH = ControllerSettings(stall_after_s=4.0)
+WATCH = ControllerSettings(stall=StallSettings(after_s=4.0))
 
 
 def _state_at(x_b: float, pusher_gap: float = 0.1, theta: float = 0.0) -> jnp.ndarray:
@@ -47,14 +48,16 @@ def _watch(settings: ControllerSettings, positions: list[float], headings: list[
 
 def test_a_stall_is_declared_after_the_set_time_without_progress_and_not_before() -> None:
     s = WATCH
-    n = round(s.stall_after_s / s.mppi.control_period)
+    n = round(s.stall.after_s / s.mppi.control_period)
     flags = _watch(s, [0.0] * (7 * n + 1))
     # while nothing moves: after stall_after_s, then after twice as long, then four times (the backoff)
     assert np.flatnonzero(flags).tolist() == [n, 3 * n, 7 * n]
-    assert np.flatnonzero(_watch(dataclasses.replace(s, stall_backoff=1.0), [0.0] * (2 * n + 1))).tolist() == [n, 2 * n]
+    no_backoff = dataclasses.replace(s, stall=dataclasses.replace(s.stall, backoff=1.0))
+    assert np.flatnonzero(_watch(no_backoff, [0.0] * (2 * n + 1))).tolist() == [n, 2 * n]
     # steady progress of 2 mm a period never stalls, though each step is below stall_progress_m
     assert not any(_watch(s, list(np.arange(3 * n) * 0.002)))
-    assert not any(_watch(dataclasses.replace(s, stall_after_s=None), [0.0] * (2 * n + 1)))
+    off = dataclasses.replace(s, stall=dataclasses.replace(s.stall, after_s=None))
+    assert not any(_watch(off, [0.0] * (2 * n + 1)))
 
 
 def test_a_slow_turn_in_place_is_progress() -> None:
@@ -70,14 +73,14 @@ def test_a_slow_turn_in_place_is_progress() -> None:
 
 def test_near_means_near_in_both_position_and_heading() -> None:
     s = WATCH
-    n = round(s.stall_after_s / s.mppi.control_period)
+    n = round(s.stall.after_s / s.mppi.control_period)
     assert not any(_watch(s, [0.59] * (2 * n), [np.radians(4.0)] * (2 * n)))   # 1 cm and 4°: near the goal
     assert any(_watch(s, [0.59] * (2 * n), [np.radians(20.0)] * (2 * n)))      # 1 cm but 20° off: not near
 
 
 def test_the_stall_clock_rests_in_contact_and_near_the_goal() -> None:
     s = WATCH
-    n = round(s.stall_after_s / s.mppi.control_period)
+    n = round(s.stall.after_s / s.mppi.control_period)
     state, watch = policy_init(LAMBDA_TRUE, s, 0), _compiled_watch(s)
     for x in [_state_at(0.0, pusher_gap=0.0)] * (2 * n) + [_state_at(0.59)] * (2 * n):
         state, stalled = watch(state, x)
@@ -86,25 +89,25 @@ def test_the_stall_clock_rests_in_contact_and_near_the_goal() -> None:
 
 @given(st.lists(st.floats(-0.3, 0.5), min_size=1, max_size=300))
 def test_stalls_are_at_most_one_per_stall_time(positions: list[float]) -> None:
-    s = dataclasses.replace(WATCH, stall_after_s=1.0)
+    s = dataclasses.replace(WATCH, stall=dataclasses.replace(WATCH.stall, after_s=1.0))
     flags = _watch(s, positions)
-    assert sum(flags) <= len(positions) * s.mppi.control_period / s.stall_after_s + 1e-9
+    assert sum(flags) <= len(positions) * s.mppi.control_period / s.stall.after_s + 1e-9
     if sum(flags):   # a stall comes only after a full stall time since the last progress
-        assert np.flatnonzero(flags)[0] >= round(s.stall_after_s / s.mppi.control_period)
+        assert np.flatnonzero(flags)[0] >= round(s.stall.after_s / s.mppi.control_period)
 
 
 def test_a_stall_restarts_the_planner_from_a_zero_warm_start_with_a_longer_horizon() -> None:
-    s = dataclasses.replace(WATCH, stall_horizon_scale=2.0)
+    s = dataclasses.replace(WATCH, stall=dataclasses.replace(WATCH.stall, horizon_scale=2.0))
     contour, x = Contour.of(SHAPE), _state_at(0.0)
     state = policy_init(LAMBDA_TRUE, s, 3)
     state = state._replace(sequence=jnp.full_like(state.sequence, 0.05), best=jnp.float32(120.0),
-                           idle=jnp.float32(s.stall_after_s - s.mppi.control_period / 2))
+                           idle=jnp.float32(s.stall.after_s - s.mppi.control_period / 2))
     stalled, _, res_stalled = plan_step(state, x, contour=contour, scene=SCENE, settings=s)
     fresh = state._replace(sequence=jnp.zeros_like(state.sequence), idle=jnp.float32(0.0),
-                           stretch=jnp.float32(s.stall_horizon_scale))
+                           stretch=jnp.float32(s.stall.horizon_scale))
     _, _, res_fresh = plan_step(fresh, x, contour=contour, scene=SCENE, settings=s)
     assert int(stalled.stalls) == 1 and float(stalled.idle) == 0.0
-    assert float(stalled.stretch) == s.stall_horizon_scale
+    assert float(stalled.stretch) == s.stall.horizon_scale
     np.testing.assert_allclose(res_stalled.sequence, res_fresh.sequence, atol=1e-6)
     # the next progress brings the paper's horizon back
     closer, _ = watch_progress(stalled, _state_at(0.1), contour=CONTOUR, scene=SCENE, settings=s)
@@ -126,13 +129,13 @@ def test_stretched_slots_keep_the_first_one_and_scale_the_rest() -> None:
 
 def test_the_watch_is_on_by_default_and_doubles_the_horizon_after_a_stall() -> None:
     s = ControllerSettings()
-    assert s.stall_after_s == 4.0 and s.stall_horizon_scale == 2.0 and s.weights.detour
+    assert s.stall.after_s == 4.0 and s.stall.horizon_scale == 2.0 and s.weights.detour
 
 
 def test_the_plan_follows_the_stretch_field_only_when_the_horizon_may_stretch() -> None:
     """With ``stall_horizon_scale`` = 1 (the paper's horizon always) a stale ``stretch`` in the state
     changes nothing; with the default it does."""
-    s = ControllerSettings(stall_horizon_scale=1.0)
+    s = ControllerSettings(stall=StallSettings(horizon_scale=1.0))
     plan = jax.jit(functools.partial(plan_step, contour=CONTOUR, scene=SCENE, settings=s))
     state, x = policy_init(LAMBDA_TRUE, s, 3), _state_at(0.0, pusher_gap=0.0)
     state = state._replace(best=jnp.float32(0.0))      # no progress now, so a stretch would be kept
@@ -149,18 +152,18 @@ def test_the_plan_follows_the_stretch_field_only_when_the_horizon_may_stretch() 
 
 
 def test_stall_settings_are_checked() -> None:
-    with pytest.raises(ValueError, match="stall_after_s"):
-        ControllerSettings(stall_after_s=0.0)
-    with pytest.raises(ValueError, match="stall_progress_m"):
-        ControllerSettings(stall_progress_m=-1.0)
-    with pytest.raises(ValueError, match="stall_contact_gap_m"):
-        ControllerSettings(stall_contact_gap_m=0.0)
-    with pytest.raises(ValueError, match="stall_horizon_scale"):
-        ControllerSettings(stall_horizon_scale=0.5)
-    with pytest.raises(ValueError, match="stall_progress_deg"):
-        ControllerSettings(stall_progress_deg=0.0)
-    with pytest.raises(ValueError, match="stall_backoff"):
-        ControllerSettings(stall_backoff=0.9)
+    with pytest.raises(ValueError, match=r"stall\.after_s"):
+        ControllerSettings(stall=StallSettings(after_s=0.0))
+    with pytest.raises(ValueError, match=r"stall\.progress_m"):
+        ControllerSettings(stall=StallSettings(progress_m=-1.0))
+    with pytest.raises(ValueError, match=r"stall\.contact_gap_m"):
+        ControllerSettings(stall=StallSettings(contact_gap_m=0.0))
+    with pytest.raises(ValueError, match=r"stall\.horizon_scale"):
+        ControllerSettings(stall=StallSettings(horizon_scale=0.5))
+    with pytest.raises(ValueError, match=r"stall\.progress_deg"):
+        ControllerSettings(stall=StallSettings(progress_deg=0.0))
+    with pytest.raises(ValueError, match=r"stall\.backoff"):
+        ControllerSettings(stall=StallSettings(backoff=0.9))
 
 
 def _plan(settings: ControllerSettings, x: jnp.ndarray) -> np.ndarray:
@@ -169,15 +172,15 @@ def _plan(settings: ControllerSettings, x: jnp.ndarray) -> np.ndarray:
 
 
 def test_near_the_goal_the_plan_weights_its_samples_with_the_endgame_temperature() -> None:
-    endgame = ControllerSettings(endgame_temperature=0.001, stall_after_s=None)
-    off = dataclasses.replace(endgame, endgame_temperature=None)
+    endgame = ControllerSettings(endgame=EndgameSettings(temperature=0.001), stall=StallSettings(after_s=None))
+    off = dataclasses.replace(endgame, endgame=dataclasses.replace(endgame.endgame, temperature=None))
     cold = dataclasses.replace(off, mppi=dataclasses.replace(off.mppi, temperature=0.001))
     near, far = _state_at(0.6 - 0.03, pusher_gap=0.0), _state_at(0.6 - 0.05, pusher_gap=0.0)
     np.testing.assert_array_equal(_plan(endgame, near), _plan(cold, near))       # 3 cm from the goal
     np.testing.assert_array_equal(_plan(endgame, far), _plan(off, far))          # 5 cm: the usual τ
     assert not np.array_equal(_plan(endgame, near), _plan(off, near))
-    with pytest.raises(ValueError, match="endgame_temperature"):
-        ControllerSettings(endgame_temperature=0.0)
+    with pytest.raises(ValueError, match=r"endgame\.temperature"):
+        ControllerSettings(endgame=EndgameSettings(temperature=0.0))
 
 
 def test_a_horizon_stretched_through_the_inputs_plans_as_one_stretched_through_the_slots() -> None:
@@ -207,3 +210,12 @@ def test_a_horizon_stretched_through_the_inputs_plans_as_one_stretched_through_t
         a, b = plan(jnp.float32(scale), False), plan(jnp.float32(scale), True)
         assert float(b.cost_min) == pytest.approx(float(a.cost_min), rel=1e-5)
         np.testing.assert_allclose(b.sequence, a.sequence, atol=1e-4)
+
+
+def test_the_flat_names_of_before_the_groups_are_read_with_a_warning() -> None:
+    with pytest.warns(FutureWarning, match=r"stall_after_s → stall\.after_s"):
+        old = ControllerSettings(stall_after_s=3.0, endgame_temperature=None)
+    assert old == ControllerSettings(stall=StallSettings(after_s=3.0), endgame=EndgameSettings(temperature=None))
+    with pytest.warns(FutureWarning):
+        again = dataclasses.replace(old, stall_backoff=3.0)
+    assert again.stall.backoff == 3.0 and again.stall.after_s == 3.0

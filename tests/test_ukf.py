@@ -14,7 +14,7 @@ from hypothesis import settings as hypothesis_settings
 from hypothesis import strategies as st
 
 from dexpush import Shape
-from dexpush.control.estimator import UKFSettings, estimator_init, estimator_observe, rate_limited
+from dexpush.control.estimator import PriorPull, UKFSettings, estimator_init, estimator_observe, rate_limited
 from dexpush.control.ukf import SigmaPoints, UKFState, ukf_update
 from dexpush.model.cgvmm import Contour
 from dexpush.world.model_plant import ModelPlant
@@ -111,7 +111,7 @@ def test_ukf_stays_bounded_and_positive_definite_under_noise_and_no_contact() ->
     skipped = est.skipped
     for k in range(30):
         est.observe([1.0, 1.0, 0.0], [1.5 + 0.001 * k, 1.5])
-    np.testing.assert_allclose(est.params, prior + (before - prior) * np.exp(-30 * 0.04 / s.prior_time_s),
+    np.testing.assert_allclose(est.params, prior + (before - prior) * np.exp(-30 * 0.04 / s.prior_pull.time_s),
                                rtol=1e-4)
     assert est.skipped == skipped + 30 - s.window
     assert np.all(np.sqrt(np.diag(np.asarray(est.state.filter.cov))) <= np.asarray(s.init_std) * 1.0001)
@@ -133,15 +133,15 @@ def test_ukf_skips_nan_and_restarts_after_a_dropped_frame() -> None:
 
 @pytest.mark.parametrize("bad, match", [(dict(window=0), "window"), (dict(meas_pos_std=0.0), "meas_pos_std"),
                                         (dict(lower=(0.0, -0.05, -0.05)), "bounds"), (dict(nis_gate=0.0), "nis_gate"),
-                                        (dict(prior_time_s=-1.0), "prior_time_s"),
-                                        (dict(rate_limit=(0.3, 0.0, 0.01)), "rate_limit")])
+                                        (dict(prior_time_s=-1.0), "prior_pull.time_s"),   # a flat name of 0.3
+                                        (dict(rate_limit=(0.3, 0.0, 0.01)), "follow.rate")])
 def test_bad_settings(bad: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         UKFSettings(**bad)
 
 
 def test_no_prior_pull_keeps_lambda_without_information() -> None:
-    s = replace(MU_OFF, prior_time_s=None)
+    s = replace(MU_OFF, prior_pull=PriorPull(time_s=None))
     est = Estimator(Shape.rectangle(), s)
     for pose, pusher in pushes(Shape.rectangle(), 60, seed=2):
         est.observe(pose, pusher)
@@ -209,7 +209,7 @@ def test_rate_limit_bounds_each_step_and_reaches_a_near_target(prev, target, dt)
     s = MU_OFF
     p, t = np.asarray(prev, np.float32), np.asarray(target, np.float32)
     out = np.asarray(rate_limited(jnp.asarray(p), jnp.asarray(t), jnp.float32(dt), s), np.float64)
-    rate = np.asarray(s.rate_limit) * dt
+    rate = np.asarray(s.follow.rate) * dt
     assert abs(np.log(out[0]) - np.log(p[0])) <= rate[0] * (1 + 1e-4) + 1e-5
     assert np.all(np.abs(out[1:] - p[1:]) <= rate[1:] * (1 + 1e-4) + 1e-7)
     # never overshoots: each component lies between the previous value and the target

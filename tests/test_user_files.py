@@ -108,7 +108,7 @@ def test_config_overrides_and_the_objects_it_builds(tmp_path: Path) -> None:
     ("[controller.mppi]\nnum_samples = 0\n", "num_samples"),
     ("[controller]\nestimate_params = true\n", "unknown key 'estimate_params'"),
     ("[run]\nlambda_pred = [-1.0, 0.0, 0.0]\n", "β"),
-    ("[run]\nobstacles = [[0.1, 0.1]]\n", "obstacle 0"),
+    ("[run]\nobstacles = [[0.1, 0.1]]\n", "obstacles\\[0\\] must be a list of 3"),
     ("[run]\ngoal = [0.1, 0.1, nan]\n", "goal"),
 ])
 def test_bad_configs_say_what_is_wrong(tmp_path: Path, text: str, message: str) -> None:

@@ -25,4 +25,4 @@ from dexpush.world.sensing import Camera, SensorSettings
 __all__ = ["LAMBDA_TRUE", "MODE_NAMES", "Camera", "Controller", "ControllerSettings", "MPPISettings", "Observation",
            "Plant", "PushingController", "SensorSettings", "Shape", "Task", "UKFSettings", "cgvmm", "contact_solution",
            "force_motion", "run_episode", "run_loop"]
-__version__ = "0.3.0"
+__version__ = "0.4.0"

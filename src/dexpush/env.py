@@ -49,6 +49,7 @@ from dexpush.common.se2 import wrap_angle
 from dexpush.control.mppi import MPPISettings
 from dexpush.experiments.registry import PLANTS, make_plant, make_shape
 from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task, initial_conditions
+from dexpush.model.cgvmm import MU_C
 from dexpush.model.shape import Shape
 from dexpush.problem.problem import SUCCESS_HEADING_DEG, SUCCESS_POSITION_M, Problem, is_success
 from dexpush.problem.weights import CostWeights
@@ -218,7 +219,7 @@ class VectorPushEnv(gym.vector.VectorEnv):
     def __init__(self, num_envs: int = 16, task: str = "I", shape: str | Shape = "rect",
                  max_steps: int = MAX_STEPS, mppi: MPPISettings | None = None, goal: object = None,
                  goal_range: object = ((-0.5, 0.5), (-0.5, 0.5)), success_position_m: float = SUCCESS_POSITION_M,
-                 success_heading_deg: float = SUCCESS_HEADING_DEG, params: object = None, mu: float = 0.3) -> None:
+                 success_heading_deg: float = SUCCESS_HEADING_DEG, params: object = None, mu: float = MU_C) -> None:
         if isinstance(num_envs, bool) or int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a whole number >= 1, got {num_envs!r}")
         if int(max_steps) < 1:

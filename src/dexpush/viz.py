@@ -16,6 +16,7 @@ from matplotlib.collections import LineCollection
 from matplotlib.patches import Circle, Polygon
 
 from dexpush.common.files import atomic_path
+from dexpush.common.interfaces import CONTROL_PERIOD_S
 from dexpush.model.cgvmm import MODE_NAMES
 from dexpush.model.shape import Shape
 
@@ -111,7 +112,7 @@ def plot_condition(shape: Shape, trajectories: list[np.ndarray], successes: list
 
 def animate_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.ndarray,
                     obstacles: np.ndarray | None, path: str | os.PathLike, fps: float = 12.5,
-                    control_period: float = 0.04, speedup: float = 1.0, title: str = "") -> str:
+                    control_period: float = CONTROL_PERIOD_S, speedup: float = 1.0, title: str = "") -> str:
     """An animation of the episode playing at ``speedup`` × real time; returns the path written.
 
     One frame every k = round(speedup / (fps·T)) control steps (T = ``control_period``),
@@ -307,7 +308,7 @@ def plot_confusion(per_object: dict, path: str | os.PathLike | None = None) -> p
 
 
 def plot_params(params: np.ndarray, truth: object | None, path: str | os.PathLike | None = None,
-                dt: float = 0.04, title: str = "") -> plt.Figure:
+                dt: float = CONTROL_PERIOD_S, title: str = "") -> plt.Figure:
     """β, x_bf and y_bf the controller planned with, against time, with λ_true (``truth``;
     None for a world without one, such as the physics plant)."""
     params = np.asarray(params)

@@ -6,19 +6,31 @@ from __future__ import annotations
 import argparse
 import math
 
-__all__ = ["at_least_one", "floats", "nonnegative_float", "positive_float", "positive_int", "positive_or_off", "seed",
-           "seed_list", "stall_time"]
+__all__ = [
+    "at_least_one",
+    "floats",
+    "nonnegative_float",
+    "out_folder",
+    "positive_float",
+    "positive_int",
+    "positive_or_off",
+    "seed",
+    "seed_list",
+    "stall_time",
+]
 
 
-def floats(count: int, what: str):
-    """An argparse type: ``count`` comma-separated numbers (the last may end in ``deg``)."""
+def floats(count: int, what: str, angle_last: bool = False):
+    """An argparse type: ``count`` comma-separated numbers; with ``angle_last`` the last is an angle,
+    in radians or in degrees with ``deg`` (``30deg``)."""
     def parse(text: str) -> tuple[float, ...]:
         parts = [t.strip() for t in text.split(",")]
         try:
             if len(parts) != count:
                 raise ValueError
-            vals = [float(t[:-3]) if t.endswith("deg") else float(t) for t in parts]
-            if parts[-1].endswith("deg"):
+            degrees = angle_last and parts[-1].endswith("deg")
+            vals = [float(t) for t in parts[:-1]] + [float(parts[-1][:-3] if degrees else parts[-1])]
+            if degrees:
                 vals[-1] = math.radians(vals[-1])
         except ValueError:
             raise argparse.ArgumentTypeError(f"{what}: expected {count} comma-separated numbers, got {text!r}") \
@@ -27,6 +39,13 @@ def floats(count: int, what: str):
             raise argparse.ArgumentTypeError(f"{what}: numbers must be finite, got {text!r}")
         return tuple(vals)
     return parse
+
+
+def out_folder(text: str) -> str:
+    """An output folder: a non-empty path (an empty one would write into the working folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must be a folder, got an empty path")
+    return text
 
 
 def seed_list(text: str) -> list[int]:

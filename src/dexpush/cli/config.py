@@ -28,28 +28,38 @@ A relative ``shape`` path is read relative to the config file.
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
-import types
-import typing
-from dataclasses import dataclass, field, fields, is_dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from dexpush.cli.settings_file import from_dict, merge, to_dict
+from dexpush.cli.settings_file import to_toml as to_toml_text
 from dexpush.common.checks import check_params, check_positive, checked_vector
 from dexpush.common.files import read_toml
 from dexpush.common.interfaces import Plant
 from dexpush.control.controller import ControllerSettings
 from dexpush.experiments.registry import PARAMS, PLANTS, SHAPES, check_condition, make_shape
 from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task
-from dexpush.model.cgvmm import LAMBDA_TRUE
+from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C
 from dexpush.model.shape import Shape
 from dexpush.world.model_plant import ModelPlant
 from dexpush.world.physics_plant import PhysicsPlant, PhysicsSettings
 from dexpush.world.sensing import SensorSettings
 
-__all__ = ["RunConfig", "RunSettings", "build_plant", "build_task", "default_config", "lambda_pred", "load_config",
-           "load_shape", "to_dict", "to_toml"]
+__all__ = [
+    "RunConfig",
+    "RunSettings",
+    "build_plant",
+    "build_task",
+    "check_bench_config",
+    "default_config",
+    "lambda_pred",
+    "load_config",
+    "load_shape",
+    "to_dict",
+    "to_toml",
+]
 
 
 @dataclass(frozen=True)
@@ -108,54 +118,11 @@ class RunConfig:
     def replace(self, **sections: dict[str, Any]) -> RunConfig:
         """A copy with keys of some tables replaced, e.g. ``replace(run={"seed": 3})``; nested
         tables as nested dicts (``controller={"mppi": {"num_samples": 256}}``)."""
-        return _from_dict(RunConfig, _merge(to_dict(self), sections), "config")
+        return from_dict(RunConfig, merge(to_dict(self, _NOT_IN_FILE), sections), "config", _NOT_IN_FILE)
 
 
-# ---------------------------------------------------------------------------- dict <-> dataclass
-_NOT_IN_FILE = {("controller", "estimate_params")}     # set by run.method
-
-
-def to_dict(obj: Any, where: str = "") -> Any:
-    """A settings dataclass as nested dicts (tuples as lists), without the keys the file cannot set."""
-    if is_dataclass(obj):
-        return {f.name: to_dict(getattr(obj, f.name), f.name) for f in fields(obj)
-                if (where, f.name) not in _NOT_IN_FILE}
-    if isinstance(obj, tuple | list):
-        return [to_dict(v) for v in obj]
-    return obj
-
-
-def _merge(base: dict, over: dict) -> dict:
-    out = dict(base)
-    for k, v in over.items():
-        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
-    return out
-
-
-def _tuples(v: Any) -> Any:
-    return tuple(_tuples(x) for x in v) if isinstance(v, list) else v
-
-
-def _from_dict(cls: type, data: Any, where: str) -> Any:
-    """``cls(**data)`` with nested settings tables, unknown keys refused by name."""
-    if not isinstance(data, dict):
-        raise ValueError(f"[{where}] must be a table of settings, got {data!r}")
-    hints = typing.get_type_hints(cls)
-    known = {f.name: f for f in fields(cls) if (where.rsplit(".", 1)[-1], f.name) not in _NOT_IN_FILE}
-    unknown = sorted(set(data) - set(known))
-    if unknown:
-        raise ValueError(f"unknown key {unknown[0]!r} in [{where}]; allowed: {', '.join(known)}")
-    kwargs = {}
-    for name, value in data.items():
-        hint = hints[name]
-        kinds = typing.get_args(hint) if isinstance(hint, types.UnionType) else (hint,)
-        sub = next((k for k in kinds if isinstance(k, type) and is_dataclass(k)), None)
-        kwargs[name] = _from_dict(sub, value, f"{where}.{name}" if where != "config" else name) if sub \
-            else _tuples(value)
-    try:
-        return cls(**kwargs)
-    except TypeError as exc:
-        raise ValueError(f"[{where}]: {exc}") from None
+#: keys a file cannot set: the method sets whether the UKF runs
+_NOT_IN_FILE = frozenset({("controller", "estimate_params")})
 
 
 def load_config(path: str | os.PathLike, overrides: dict[str, dict] | None = None) -> RunConfig:
@@ -163,11 +130,18 @@ def load_config(path: str | os.PathLike, overrides: dict[str, dict] | None = Non
     (tables of keys, as :meth:`RunConfig.replace`) applied on top."""
     path = Path(path)
     doc = read_toml(path, "config file")
-    doc.pop("shape", None)                      # a shape table may live in the same file (Shape.from_file)
     shape = doc.get("run", {}).get("shape") if isinstance(doc.get("run"), dict) else None
     if isinstance(shape, str) and shape.endswith(".toml") and not Path(shape).is_absolute():
         doc["run"]["shape"] = str(path.parent / shape)
-    return _from_dict(RunConfig, _merge(doc, overrides or {}), "config")
+    if "shape" in doc:                          # a shape table may live in the same file (Shape.from_file)
+        doc.pop("shape")
+        named = (overrides or {}).get("run", {}).get("shape", doc.get("run", {}).get("shape"))
+        if not doc:
+            raise ValueError(f"{path} is a shape file (only a [shape] table): pass it with --shape {path}")
+        if not (isinstance(named, str) and Path(named).resolve() == path.resolve()):
+            raise ValueError(f"{path} has a [shape] table, but the run pushes {named or 'rect'!r}: set "
+                             f"[run] shape = \"{path.name}\" to push it, or remove the table")
+    return from_dict(RunConfig, merge(doc, overrides or {}), "config", _NOT_IN_FILE)
 
 
 def default_config(overrides: dict[str, dict] | None = None) -> RunConfig:
@@ -175,42 +149,11 @@ def default_config(overrides: dict[str, dict] | None = None) -> RunConfig:
     return RunConfig().replace(**(overrides or {}))
 
 
-# ---------------------------------------------------------------------------- TOML text
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, float):
-        return repr(v) if math.isfinite(v) else ("inf" if v > 0 else "-inf" if v < 0 else "nan")
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise ValueError(f"cannot write {v!r} as TOML")
-
-
-def to_toml(config: RunConfig) -> str:
-    """The config as TOML text that :func:`load_config` reads back to the same settings.
-    Unset optional keys (None) are written as comments."""
-    lines: list[str] = ["# dexpush run configuration (dexpush run --config FILE); every key is optional"]
-
-    def table(name: str, d: dict) -> None:
-        lines.append(f"\n[{name}]")
-        nested = []
-        for k, v in d.items():
-            if isinstance(v, dict):
-                nested.append((k, v))
-            elif v is None:
-                lines.append(f"# {k} = ...   (unset: the default applies)")
-            else:
-                lines.append(f"{k} = {_toml_value(v)}")
-        for k, v in nested:
-            table(f"{name}.{k}", v)
-
-    for name, d in to_dict(config).items():
-        table(name, d)
-    return "\n".join(lines) + "\n"
+def to_toml(config: RunConfig, tables: tuple[str, ...] | None = None) -> str:
+    """The config as TOML text that :func:`load_config` reads back to the same settings (only
+    ``tables`` when given)."""
+    return to_toml_text(config, "dexpush configuration (dexpush run --config FILE, dexpush bench --config FILE); "
+                                "every key is optional", _NOT_IN_FILE, tables)
 
 
 # ---------------------------------------------------------------------------- objects of a run
@@ -237,14 +180,29 @@ def build_task(run: RunSettings) -> Task:
 
 
 def build_plant(config: RunConfig, shape: Shape) -> str | Plant:
-    """The world of a run: a registry name when the defaults apply, else the plant object."""
+    """The world of a run: a registry name when the defaults apply, else the plant object. Settings of
+    another plant than the run's are refused, not dropped."""
     run = config.run
+    if run.plant != "physics" and config.physics != PhysicsSettings():
+        raise ValueError(f"[physics] sets the physics plant, but the run's plant is {run.plant!r}: set "
+                         "[run] plant = \"physics\" (or --plant physics), or remove the [physics] table")
     if run.plant == "model" and (run.true_params is not None or run.mu is not None):
         return ModelPlant(shape, run.true_params if run.true_params is not None else LAMBDA_TRUE,
-                          mu=run.mu if run.mu is not None else 0.3)
+                          mu=run.mu if run.mu is not None else MU_C)
     if run.plant == "physics" and config.physics != PhysicsSettings():
         return PhysicsPlant(shape, config.physics)
     return run.plant
+
+
+def check_bench_config(config: RunConfig, args: object) -> None:
+    """``dexpush bench`` takes its conditions from its flags and runs the named plants with their own
+    worlds: a configuration's non-default [run] or [physics] table is refused, not dropped."""
+    if config.run != RunSettings():
+        raise ValueError("the [run] table says what one `dexpush run` pushes; `dexpush bench` takes that from "
+                         "--tasks, --shapes, --params, --methods and --seeds: remove [run] from the file")
+    if config.physics != PhysicsSettings():
+        raise ValueError("`dexpush bench` runs the physics plant's world (--plant physics) or its randomised "
+                         "family (--randomize); a [physics] table is for `dexpush run`: remove it from the file")
 
 
 def lambda_pred(run: RunSettings) -> tuple[float, float, float]:

@@ -14,290 +14,22 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
+import re
 import sys
-import time
+import warnings
 from collections.abc import Sequence
-from pathlib import Path
 
-from dexpush.cli.arguments import floats, positive_int, seed, seed_list
-from dexpush.cli.planner_flags import add_planner_flags, planner_settings
+from dexpush.cli.arguments import floats, out_folder, positive_int, seed, seed_list
+from dexpush.cli.commands import cmd_bench, cmd_fit, cmd_run, cmd_validate
+from dexpush.cli.flags import add_camera_flags, add_planner_flags
 from dexpush.experiments.benchmark import BENCH_LANES
-from dexpush.experiments.methods import get_method, method_names
-from dexpush.experiments.records import CONDITION_KEYS
+from dexpush.experiments.methods import method_names
 from dexpush.experiments.registry import PARAMS, PLANTS, SHAPES
 from dexpush.experiments.scenarios import MAX_STEPS
+from dexpush.model.cgvmm import MU_C
 
 __all__ = ["main"]
-
-
-def _episode_files(episode, shape, out: Path, animation: bool, control_period: float = 0.04,
-                   truth: object | None = None) -> dict[str, str]:
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    from dexpush.common.files import atomic_path, write_json_atomic
-    from dexpush.viz import animate_episode, plot_episode, plot_params
-
-    rec = episode.record
-    task = "custom goal" if rec.task == "custom" else f"Task {rec.task}"
-    title = (f"{task} · {rec.shape} · {rec.method} ({rec.params} λ) · {rec.plant} plant · camera: {rec.sensor} · "
-             f"seed {rec.seed}\n{'success' if rec.success else 'failure'} in {rec.steps} steps ({rec.time_s:g} s)")
-    files = {"trajectory": str(out / "trajectory.png"), "summary": str(out / "summary.json")}
-    fig = plot_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles, title=title,
-                       path=files["trajectory"])
-    plt.close(fig)
-    if get_method(rec.method).estimates:
-        files["params"] = str(out / "params.png")
-        plt.close(plot_params(episode.params, truth, files["params"], dt=control_period, title=title))
-    if animation:
-        duration = len(episode.states) * control_period
-        speedup = max(1, math.ceil(duration / 30.0))      # long episodes play faster (the caption says so)
-        files["animation"] = animate_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles,
-                                             out / "animation.mp4", control_period=control_period,
-                                             speedup=speedup, title=title)
-    files["trajectory_data"] = str(out / "trajectory.npz")
-    with atomic_path(files["trajectory_data"]) as tmp, open(tmp, "wb") as fh:
-        np.savez_compressed(fh, states=episode.states, modes=episode.modes, commands=episode.commands,
-                            planning_ms=episode.planning_ms, params=episode.params, goal=episode.goal,
-                            obstacles=episode.obstacles)
-    write_json_atomic(files["summary"], episode.summary())
-    return files
-
-
-#: ``dexpush run`` flags that override the config's [run] table (None: not given)
-_RUN_KEYS = ("task", "shape", "goal", "params", "lambda_pred", "method", "seed", "plant", "true_params", "mu",
-             "max_steps")
-
-
-def _run_config(args: argparse.Namespace):
-    """The effective :class:`dexpush.cli.config.RunConfig`: defaults, then ``--config``, then the flags."""
-    from dexpush.cli.config import default_config, load_config, to_dict
-
-    over: dict = {"run": {k: getattr(args, k) for k in _RUN_KEYS if getattr(args, k, None) is not None}}
-    if getattr(args, "obstacle", None) is not None:
-        over["run"]["obstacles"] = args.obstacle
-    if args.samples is not None:
-        over["controller"] = {"mppi": {"num_samples": args.samples}}
-    sensor = _sensor_flags(args)
-    if sensor is not None:
-        over["sensor"] = to_dict(sensor)
-    return load_config(args.config, over) if getattr(args, "config", None) else default_config(over)
-
-
-def _cmd_run(args: argparse.Namespace) -> dict:
-    from dexpush.cli.config import build_plant, build_task, lambda_pred, load_shape, to_toml
-    from dexpush.experiments.runner import run_episode
-    from dexpush.model.cgvmm import LAMBDA_TRUE
-
-    config = _run_config(args)
-    if getattr(args, "print_config", False):
-        sys.stdout.write(to_toml(config))
-        return {}
-    run = config.run
-    shape = load_shape(run.shape)
-    if shape.origin != (0.0, 0.0) and not args.quiet:
-        print(f"dexpush: {shape.name}: reference point (the pose the goal refers to) at "
-              f"({shape.origin[0]:.4f}, {shape.origin[1]:.4f}) m in the shape file's frame", file=sys.stderr)
-    task = build_task(run)
-    sensor = config.sensor if config.sensor != type(config.sensor)() else None
-    params = run.params if run.lambda_pred is None else lambda_pred(run)
-    settings = config.controller
-    episode = run_episode(task, shape, params=params, method=run.method, seed=run.seed,
-                          max_steps=run.max_steps, settings=settings, progress=not args.quiet, lanes=args.lanes,
-                          plant=build_plant(config, shape), sensor=sensor)
-    out = Path(args.out)
-    files = _episode_files(episode, shape, out, animation=not args.no_animation,
-                           control_period=settings.mppi.control_period,
-                           truth=(run.true_params or LAMBDA_TRUE) if run.plant == "model" else None)
-    summary = episode.summary()
-    summary["files"] = files
-    return summary
-
-
-def _cmd_validate(args: argparse.Namespace) -> dict:
-    import matplotlib.pyplot as plt
-
-    from dexpush.common.files import write_json_atomic
-    from dexpush.data.mit import load_folder
-    from dexpush.data.validation import validate
-    from dexpush.viz import plot_confusion, plot_mode_decisions
-
-    if args.estimate_mu and not args.online:
-        raise ValueError("--estimate-mu is an option of --online (the UKF's μ_c); add --online")
-    pushes = load_folder(args.data_dir)
-    result = validate(pushes, mu=args.mu)
-    out = Path(args.out)
-    files = {"mode_decisions": str(out / "mode_decisions.png"), "confusion": str(out / "confusion.png"),
-             "summary": str(out / "validation.json")}
-    plt.close(plot_mode_decisions(result.per_object, args.mu, files["mode_decisions"]))
-    plt.close(plot_confusion(result.per_object, files["confusion"]))
-    write_json_atomic(files["summary"], result.summary)
-    if not args.quiet:
-        for name, e in result.summary["objects"].items():
-            print(f"{name}: {e['pushes']} pushes, {e['samples']} samples, β = {e['beta_fit']:.1f}, "
-                  f"mode agreement {e['mode_agreement']:.1%}, one-step {e['one_step_error_mm']:.2f} mm / "
-                  f"{e['one_step_error_deg']:.2f}°, whole push {e['whole_push_error_mm']:.2f} mm / "
-                  f"{e['whole_push_error_deg']:.2f}°", file=sys.stderr)
-    summary = {k: v for k, v in result.summary.items() if k != "objects"}
-    summary["beta_fit"] = {k: e["beta_fit"] for k, e in result.summary["objects"].items()}
-    summary["lambda_fit"] = {k: e.get("lambda_fit") for k, e in result.summary["objects"].items()}
-    if args.online:
-        summary["online"] = _validate_online(pushes, args, out, files)
-    summary["files"] = files
-    return summary
-
-
-def _validate_online(pushes: list, args: argparse.Namespace, out: Path, files: dict) -> dict:
-    """``validate-mit --online``: dexpush.data.online per object, written to online.json and lambda.png."""
-    import matplotlib.pyplot as plt
-
-    from dexpush.common.files import write_json_atomic
-    from dexpush.control.estimator import UKFSettings
-    from dexpush.data.mit import OBJECTS
-    from dexpush.data.online import online_session
-    from dexpush.experiments.registry import PARAMS
-    from dexpush.viz import plot_online_lambda
-
-    per_object, traces = {}, {}
-    settings = UKFSettings(estimate_mu=args.estimate_mu)
-    for name in sorted({p.shape for p in pushes}):
-        per_object[name], traces[name] = online_session([p for p in pushes if p.shape == name], OBJECTS[name](),
-                                                        prior=PARAMS["unknown"], mu=args.mu, settings=settings)
-        if not args.quiet:
-            e = per_object[name]
-            mu_text = f", μ_c {args.mu:g} → {e['mu_c_final']:.3f}" if args.estimate_mu else ""
-            print(f"{name} online: β {e['prior'][0]:g} → {e['lambda_final'][0]:.1f}{mu_text} (settled after push "
-                  f"{e['settled_after_push']} of {e['pushes']}), whole push {e['whole_push_error_mm_online']:.2f} mm / "
-                  f"{e['whole_push_error_deg_online']:.2f}° (prior {e['whole_push_error_mm_prior']:.2f} mm / "
-                  f"{e['whole_push_error_deg_prior']:.2f}°), NMSE {e['nmse_online']:.2f} (prior {e['nmse_prior']:.2f})",
-                  file=sys.stderr)
-    files["online"], files["lambda"] = str(out / "online.json"), str(out / "lambda.png")
-    write_json_atomic(files["online"], per_object)
-    plt.close(plot_online_lambda(traces, files["lambda"]))
-    return {name: {k: e[k] for k in ("lambda_final", "settled_after_push", "whole_push_error_deg_online",
-                                     "whole_push_error_deg_prior", "nmse_online", "nmse_prior")}
-            for name, e in per_object.items()}
-
-
-def _cmd_fit(args: argparse.Namespace) -> dict:
-    import matplotlib.pyplot as plt
-
-    from dexpush.cli.config import load_shape
-    from dexpush.common.files import write_json_atomic
-    from dexpush.data.fitting import fit_pushes
-    from dexpush.data.logs import read_log
-    from dexpush.data.mit import OBJECTS
-    from dexpush.viz import plot_fit
-
-    pushes = read_log(args.log)
-    if args.shape is not None:
-        shape = load_shape(args.shape)
-    else:
-        kinds = {p.shape for p in pushes}
-        if len(kinds) > 1 and kinds <= set(OBJECTS):
-            raise ValueError(f"the log holds pushes of several objects ({', '.join(sorted(kinds))}); fit one object "
-                             "at a time (a folder with only its files)")
-        if len(kinds) != 1 or next(iter(kinds)) not in OBJECTS:
-            raise ValueError("--shape is needed: the object's footprint (rect, tee, ellipse or a shape file), "
-                             "with the logged pose being its reference point")
-        shape = OBJECTS[next(iter(kinds))]()
-    result = fit_pushes(pushes, shape, mu=args.mu, fit_mu=args.fit_mu)
-    summary = {"log": str(args.log), "shape": shape.name, **result.summary()}
-    out = Path(args.out)
-    files = {"fit": str(out / "fit.json"), "figure": str(out / "fit.png")}
-    plt.close(plot_fit(shape, [p.states for p in pushes], result.replays, summary, files["figure"]))
-    lam = summary["lambda"]
-    summary["use"] = (f"dexpush run --lambda-pred {lam[0]:g},{lam[1]:g},{lam[2]:g}"
-                      + (f" (and [controller] mu = {summary['mu_c']:g} in a --config file)" if args.fit_mu else ""))
-    write_json_atomic(files["fit"], summary)
-    if not args.quiet:
-        std = [v if v is not None else float("inf") for v in summary["lambda_std"]]
-        mu = f"μ_c = {args.mu:g} (given)"
-        if args.fit_mu:
-            mu = (f"μ_c = {summary['mu_c']:.3f} ± {summary['mu_c_std']:.3f}" if summary["mu_c_std"] is not None
-                  else f"μ_c = {summary['mu_c']:.3f}, not identifiable: no sample slides along the contour")
-        print(f"{summary['pushes']} pushes, {summary['samples']} samples at 25 Hz\n"
-              f"β    = {lam[0]:8.2f} ± {std[0]:.2f} 1/m\nx_bf = {lam[1] * 1e3:8.2f} ± {std[1] * 1e3:.2f} mm\n"
-              f"y_bf = {lam[2] * 1e3:8.2f} ± {std[2] * 1e3:.2f} mm\n{mu}\n"
-              f"one-step error {summary['one_step_error_mm']:.2f} mm / {summary['one_step_error_deg']:.2f}°, "
-              f"whole push {summary['whole_push_error_mm']:.1f} mm / {summary['whole_push_error_deg']:.1f}°\n"
-              f"use it: {summary['use']}", file=sys.stderr)
-    summary["files"] = files
-    return summary
-
-
-def _sensor_flags(args: argparse.Namespace):
-    """The camera the flags ask for, or None when no camera flag was given."""
-    from dexpush.world.sensing import SensorSettings
-
-    if args.camera == "realistic":
-        return SensorSettings.realistic()
-    if args.camera is None and not any((args.noise_mm, args.noise_deg, args.camera_hz, args.latency_ms, args.drop)):
-        return None
-    return SensorSettings(pos_std_m=args.noise_mm / 1e3, heading_std_rad=math.radians(args.noise_deg),
-                          rate_hz=args.camera_hz, latency_s=args.latency_ms / 1e3, drop_prob=args.drop)
-
-
-def _sensor(args: argparse.Namespace):
-    from dexpush.world.sensing import SensorSettings
-
-    return _sensor_flags(args) or SensorSettings()
-
-
-def _sensor_text(args: argparse.Namespace) -> str:
-    if args.camera == "realistic":
-        return " --camera realistic"
-    parts = [f" --{name.replace('_', '-')} {getattr(args, name)}"
-             for name in ("noise_mm", "noise_deg", "camera_hz", "latency_ms", "drop") if getattr(args, name)]
-    return "".join(parts)
-
-
-def _cmd_bench(args: argparse.Namespace) -> dict:
-    import datetime
-    import platform
-
-    from dexpush.experiments.benchmark import folder_records, run_benchmark
-    from dexpush.experiments.scenarios import get_task
-    from dexpush.experiments.tables import write_tables
-
-    tasks = [get_task(t).key for t in args.tasks.split(",")]
-    shapes, params, methods = (args.shapes.split(","), args.params.split(","), args.methods.split(","))
-    choices = (("shape", shapes, SHAPES), ("params", params, tuple(PARAMS)), ("method", methods, method_names()))
-    for name, values, allowed in choices:
-        bad = [v for v in values if v not in allowed]
-        if bad:
-            raise ValueError(f"unknown {name} {bad[0]!r}; choose from {', '.join(allowed)}")
-    seeds = args.seeds if args.seeds is not None else list(range(args.trials))
-    if args.randomize:
-        if args.plant not in ("physics", "physics-random"):
-            raise ValueError("--randomize randomises the physics plant's world: use it with --plant physics")
-        args.plant = "physics-random"
-    settings, options = planner_settings(args)
-    t0 = time.perf_counter()
-    records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
-                            lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures,
-                            workers=args.workers, plant=args.plant, sensor=_sensor(args), settings=settings)
-    wall = time.perf_counter() - t0
-    seed_text = f"--seeds {args.seeds_text}" if args.seeds is not None else f"--trials {args.trials}"
-    meta = {"command": f"dexpush bench --tasks {args.tasks} --shapes {args.shapes} --params {args.params} "
-                       f"--methods {args.methods} {seed_text} --lanes {args.lanes} --plant {args.plant}"
-                       f"{_sensor_text(args)}{options} --workers {args.workers} --out {args.out}",
-            "date": datetime.date.today().isoformat(),
-            "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.python_implementation()} "
-                       f"{platform.python_version()}",
-            "wall_s_this_invocation": round(wall, 1)}
-    everything = folder_records(args.out)      # the tables cover every trial in the folder, not only this run's
-    if len(everything) > len(records):
-        meta["note"] = (f"{len(everything) - len(records)} of the {len(everything)} trials were recorded by earlier "
-                        f"runs into {args.out} with the same settings (settings.json)")
-    files = write_tables(args.out, everything, meta)
-    ok = sum(r["success"] for r in records)
-    n_cond = len({tuple(r[k] for k in CONDITION_KEYS) for r in records})
-    return {"conditions": n_cond, "trials": len(records), "successes": ok,
-            "success_rate": round(ok / len(records), 4) if records else None, "wall_s": round(wall, 1),
-            "files": files}
 
 
 def _version() -> str:
@@ -315,30 +47,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = p.add_subparsers(dest="command", required=True)
 
-    def sensor_args(sp: argparse.ArgumentParser) -> None:
-        g = sp.add_argument_group("sensing (what the controller sees; default: exact state every step)")
-        g.add_argument("--camera", choices=["exact", "realistic"], default=None,
-                       help="exact (default): the true state every step; realistic: 15 Hz, 1 mm / 0.5° noise, "
-                            "60 ms latency, 5%% dropped frames")
-        g.add_argument("--noise-mm", type=float, default=0.0, help="object position noise σ (mm)")
-        g.add_argument("--noise-deg", type=float, default=0.0, help="object heading noise σ (deg)")
-        g.add_argument("--camera-hz", type=float, default=None, help="camera rate (default: every control step)")
-        g.add_argument("--latency-ms", type=float, default=0.0, help="capture-to-controller delay (ms)")
-        g.add_argument("--drop", type=float, default=0.0, help="probability of a lost frame")
-
     def episode_args(sp: argparse.ArgumentParser, out: str) -> None:
-        sp.add_argument("--out", default=out, help=f"output folder (default {out})")
+        sp.add_argument("--out", type=out_folder, default=out, help=f"output folder (default {out})")
         sp.add_argument("--max-steps", type=positive_int, default=None,
                         help=f"control steps before giving up (default {MAX_STEPS})")
-        sp.add_argument("--samples", type=positive_int, default=None, help="MPPI samples K (default 1024)")
         sp.add_argument("--no-animation", action="store_true", help="skip the animation")
         sp.add_argument("--quiet", action="store_true", help="no progress bar")
 
     demo = sub.add_parser("demo", help="closed-loop demo: Task I, rect, known parameters, MPPI")
     episode_args(demo, "out/demo")
     demo.set_defaults(task="I", shape="rect", params="known", method="mppi", seed=0, lanes=1, plant="model",
-                      camera="exact", noise_mm=0.0, noise_deg=0.0, camera_hz=None, latency_ms=0.0, drop=0.0,
-                      func=_cmd_run)
+                      camera="exact", func=cmd_run)
 
     run = sub.add_parser("run", help="one closed-loop episode: a benchmark task, or your own object, goal and "
                                      "obstacles", formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -349,13 +68,13 @@ def build_parser() -> argparse.ArgumentParser:
                                 "  dexpush run --print-config > run.toml   # edit, then: dexpush run --config run.toml")
     what = run.add_argument_group("what to push where (flags override --config)")
     what.add_argument("--config", metavar="FILE.toml", default=None,
-                      help="a run configuration (see --print-config for every key and its default)")
+                      help="a configuration file (see --print-config for every key and its default)")
     what.add_argument("--print-config", action="store_true",
                       help="print the effective configuration as TOML and exit")
     what.add_argument("--task", default=None, help="I, II or III: start distribution, goal, obstacles (default I)")
     what.add_argument("--shape", default=None, metavar="NAME|FILE.toml",
                       help=f"{', '.join(SHAPES)}, or a shape file (docs/conventions.md#shapes) (default rect)")
-    what.add_argument("--goal", type=floats(3, "--goal"), default=None, metavar="X,Y,THETA",
+    what.add_argument("--goal", type=floats(3, "--goal", angle_last=True), default=None, metavar="X,Y,THETA",
                       help="goal pose of the shape's reference point: x, y in m, θ in rad (or e.g. 30deg) "
                            "(default: the task's)")
     what.add_argument("--obstacle", type=floats(3, "--obstacle"), action="append", default=None,
@@ -375,13 +94,14 @@ def build_parser() -> argparse.ArgumentParser:
                           "of the randomised family, with its own camera) (default model)")
     how.add_argument("--true-params", type=floats(3, "--true-params"), default=None, metavar="BETA,XBF,YBF",
                      help="the model plant's true λ (default 25,-0.01,0.02)")
-    how.add_argument("--mu", type=float, default=None, help="the model plant's true μ_c (default 0.3)")
+    how.add_argument("--mu", type=float, default=None, help=f"the model plant's true μ_c (default {MU_C:g})")
     how.add_argument("--lanes", type=positive_int, default=1,
                      help=f"batch lanes of the simulation (default 1); {BENCH_LANES} (the bench's) reproduces a "
                           "`dexpush bench` record exactly")
-    sensor_args(run)
+    add_planner_flags(run)
+    add_camera_flags(run)
     episode_args(run, "out/run")
-    run.set_defaults(func=_cmd_run)
+    run.set_defaults(func=cmd_run)
 
     bench = sub.add_parser("bench", help="the paper's Sec. IV-B table (batched, resumable)")
     bench.add_argument("--tasks", default="I,II,III", help="comma-separated tasks from I, II, III (default I,II,III)")
@@ -408,17 +128,24 @@ def build_parser() -> argparse.ArgumentParser:
                        help="with --plant physics: trial s runs in random world s (table and pusher friction, "
                             "support pressure, mass, pusher radius) seen through random camera s; the camera "
                             "options are then unused")
-    sensor_args(bench)
+    add_camera_flags(bench)
     bench.add_argument("--max-steps", type=positive_int, default=MAX_STEPS,
                        help=f"control steps before a trial fails (default {MAX_STEPS})")
     add_planner_flags(bench)
-    bench.add_argument("--out", default="out/bench", help="output folder; re-running resumes (default out/bench)")
+    bench.add_argument("--config", metavar="FILE.toml", default=None,
+                       help="a configuration file's [controller] and [sensor] tables (the same file as "
+                            "`dexpush run --config`; flags override it)")
+    bench.add_argument("--print-config", action="store_true",
+                       help="print the effective [controller] and [sensor] as TOML and exit")
+    bench.add_argument("--out", type=out_folder, default="out/bench",
+                       help="output folder; re-running resumes (default out/bench)")
     bench.add_argument("--quiet", action="store_true", help="no progress output")
-    bench.set_defaults(func=_cmd_bench)
+    bench.set_defaults(func=cmd_bench)
 
     val = sub.add_parser("validate-mit", help="validate the C-GVMM on MIT push-dataset files (paper Sec. IV-A)")
     val.add_argument("data_dir", help="folder with the dataset's motion_*.h5 / motion_*.json files")
-    val.add_argument("--out", default="out/validate-mit", help="output folder (default out/validate-mit)")
+    val.add_argument("--out", type=out_folder, default="out/validate-mit",
+                     help="output folder (default out/validate-mit)")
     val.add_argument("--mu", type=float, default=0.25, help="pusher–object friction μ_c (default 0.25, as the paper)")
     val.add_argument("--online", action="store_true",
                      help="also run the controller's UKF over each object's pushes in order: λ over time, "
@@ -426,7 +153,7 @@ def build_parser() -> argparse.ArgumentParser:
     val.add_argument("--estimate-mu", action="store_true",
                      help="with --online: the UKF estimates μ_c as well, from --mu as its prior")
     val.add_argument("--quiet", action="store_true", help="no per-object lines on stderr")
-    val.set_defaults(func=_cmd_validate)
+    val.set_defaults(func=cmd_validate)
 
     fit = sub.add_parser("fit", help="fit λ = [β, x_bf, y_bf] (and μ_c) to your recorded pushes",
                          description="Fit the C-GVMM's λ to recorded pushes: a CSV or NPZ log (columns t, x, y, "
@@ -438,13 +165,39 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--mu", type=float, default=0.25, help="pusher–object friction μ_c (the start value with "
                                                            "--fit-mu) (default 0.25)")
     fit.add_argument("--fit-mu", action="store_true", help="fit μ_c as well")
-    fit.add_argument("--out", default="out/fit", help="output folder for fit.json and fit.png (default out/fit)")
+    fit.add_argument("--out", type=out_folder, default="out/fit",
+                     help="output folder for fit.json and fit.png (default out/fit)")
     fit.add_argument("--quiet", action="store_true", help="no report on stderr")
-    fit.set_defaults(func=_cmd_fit)
+    fit.set_defaults(func=cmd_fit)
     return p
 
 
+#: flags whose value may be a negative number (argparse takes "-0.3,0.2,0" for an option)
+_NUMERIC_FLAGS = ("--goal", "--obstacle", "--lambda-pred", "--true-params")
+
+
+def _joined_negatives(argv: Sequence[str]) -> list[str]:
+    """``--goal -0.3,0.2,0`` as ``--goal=-0.3,0.2,0``, so that a negative coordinate is a value."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        a = argv[i]
+        if a in _NUMERIC_FLAGS and i + 1 < len(argv) and re.match(r"^-\.?\d", argv[i + 1]):
+            out.append(f"{a}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(a)
+        i += 1
+    return out
+
+
+def _note(message: Warning | str, category: type[Warning], *_: object, **__: object) -> None:
+    """Warnings as one line on stderr (a note to the user, not a traceback-like report)."""
+    print(f"dexpush: note: {message}", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    argv = _joined_negatives(list(sys.argv[1:] if argv is None else argv))
     args = build_parser().parse_args(argv)
     import matplotlib
 
@@ -458,11 +211,19 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"dexpush: note: no compilation cache ({exc})", file=sys.stderr)
     if getattr(args, "seeds", None) is not None:
         args.seeds_text = ",".join(map(str, args.seeds))
-    try:
-        summary = args.func(args)
-    except (ValueError, OSError) as exc:  # bad input, or a path that cannot be used: one clear line, no traceback
-        print(f"dexpush: error: {exc}", file=sys.stderr)
-        return 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("default", FutureWarning)
+        warnings.showwarning = _note
+        try:
+            summary = args.func(args)
+        except (ValueError, OSError) as exc:  # bad input, or a path that cannot be used: one line, no traceback
+            print(f"dexpush: error: {exc}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            resume = (f"; every finished trial is saved in {args.out}: the same command resumes there"
+                      if args.command == "bench" else "")
+            print(f"\ndexpush: interrupted{resume}", file=sys.stderr)
+            return 130
     if summary:                         # --print-config printed the config instead
         print(json.dumps(summary))
     return 1 if summary.get("success") is False else 0

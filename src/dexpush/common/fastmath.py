@@ -73,11 +73,11 @@ def materialize(one: jnp.ndarray | float, *values: jnp.ndarray) -> tuple[jnp.nda
 
     XLA's CPU backend fuses elementwise code into loops with one output each and copies
     cheap producers into every loop that uses them; a C-GVMM step shares a few dozen
-    intermediates among several outputs, so its loops recomputed them: 45 loops and 2.8×
-    the multiplications of the program as written. A division is not copied: a value
+    intermediates among several outputs, so its loops recomputed them, several times the
+    multiplications of the program as written. A division is not copied: a value
     divided by a runtime 1 is computed in one loop, stored, and read by its users. Placed at
-    the seams of the step (docs/performance.md lists them and the measurements) this halved
-    an MPPI iteration on the CPU. Division by 1 is exact, so results do not change beyond
+    the seams of the step (docs/performance.md lists them and the measurements) this makes an
+    MPPI iteration much faster on the CPU. Division by 1 is exact, so results do not change beyond
     the rounding of fused multiply-adds. With a Python number for ``one`` (no jit-time value
     to divide by) the values are returned as they are.
     """

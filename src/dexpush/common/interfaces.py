@@ -18,7 +18,10 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["Controller", "Frame", "Observation", "Plant", "check_plant"]
+__all__ = ["CONTROL_PERIOD_S", "Controller", "Frame", "Observation", "Plant", "check_plant"]
+
+#: T, the control period (s) of the paper's loop (25 Hz): how long a command is held unless told otherwise
+CONTROL_PERIOD_S = 0.04
 
 
 @dataclass(frozen=True)

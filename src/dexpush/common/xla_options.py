@@ -3,9 +3,8 @@
 An MPPI iteration runs ~60 fused loops over K = 1024 samples for each of its 25 steps, each
 a few microseconds of work. XLA's CPU client hands independent loops to a pool with one thread
 per core; on the 2-core machines we target the hand-offs cost more than the parallel work
-saves: measured with ``benchmarks/mppi_speed.py``, the T's iteration took 2.1 ms with the
-default pool and 1.75 ms with one thread, and the busy-waiting second thread doubled the CPU
-time (a benchmark worker or a robot driver beside it lost that core). The batched simulator
+saves, and the busy-waiting second thread takes a core from a benchmark worker or a robot
+driver beside it (``benchmarks/mppi_speed.py`` measures both; docs/performance.md). The batched simulator
 runs one worker process per core instead (``dexpush bench --workers``).
 
 XLA sizes the pool from the environment variable ``NPROC`` when the first JAX backend starts
@@ -16,9 +15,8 @@ default pool; :func:`active` says which). Programs that run large matrix product
 process and want every core set ``NPROC`` themselves. On a GPU this changes nothing but the
 host-side pool.
 
-Measured and rejected (``docs/performance.md``): XLA's CPU multi-output fusion
-(``--xla_backend_extra_options=xla_cpu_use_multi_output_fusion``) halved the rollout but made
-programs over stacked (n, 5) states 1000× slower (the UKF's window replay ran for minutes).
+XLA's CPU multi-output fusion is left off: it speeds the rollout up but slows programs over
+stacked (n, 5) states, such as the UKF's window replay, by orders of magnitude (docs/performance.md).
 """
 
 from __future__ import annotations

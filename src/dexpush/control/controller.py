@@ -153,7 +153,7 @@ class PushingController:
 
     @property
     def stall_resets(self) -> int:
-        """Planner restarts after a stall since :meth:`reset` (``ControllerSettings.stall_after_s``)."""
+        """Planner restarts after a stall since :meth:`reset` (``ControllerSettings.stall.after_s``)."""
         return int(self.state.stalls)
 
     @property

@@ -42,11 +42,11 @@ Robustness to a world that is not the model (docs/ukf.md#robustness):
   Σ = diag(σ_p², σ_p², σ_θ²). With the diagonal alone the filter was overconfident on its
   own model (median NIS/m 1.6–1.9 and NEES/3 9–20 instead of 1); with it, 1.0 and 2–3
   (``python benchmarks/ukf_consistency.py``, docs/ukf.md#robustness).
-* ``prior_time_s`` τ = 30 s: every observation that brings no informative window (no
+* ``prior_pull.time_s`` τ = 30 s: every observation that brings no informative window (no
   contact, no motion, an incomplete window) moves the mean toward the prior by
   1 − exp(−Δt/τ), so while the data are uninformative the estimate drifts back to the
   initial guess instead of keeping a stray value; informative windows are not biased.
-* ``rate_limit`` = (0.35 in ln β, 1 cm, 1 cm) per second: λ_pred, what the planner uses
+* ``follow.rate`` = (0.35 in ln β, 1 cm, 1 cm) per second: λ_pred, what the planner uses
   (:func:`rate_limited`), follows the filter's mean no faster than this, so it cannot
   change β by a factor of 2 in under 2 s, nor move the CoF by more than 1 cm/s, without
   the filter holding it there that long.
@@ -54,7 +54,7 @@ Robustness to a world that is not the model (docs/ukf.md#robustness):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import jax
@@ -63,13 +63,64 @@ import numpy as np
 
 from dexpush.common.checks import check_positive
 from dexpush.common.se2 import wrap_angle
+from dexpush.common.settings import grouped
 from dexpush.control.ukf import SigmaPoints, UKFState, clean_covariance, ukf_update
-from dexpush.model.cgvmm import Contour, contact_gap, replay
+from dexpush.model.cgvmm import MU_C, Contour, contact_gap, replay
 
-__all__ = ["EstimatorState", "UKFSettings", "WindowUpdate", "estimator_init", "estimator_observe", "frame_gate",
-           "prior_covariance", "rate_limited", "state_bounds", "window_update"]
+__all__ = ["EstimatorState", "Follow", "FrameGate", "PriorPull", "UKFSettings", "WindowUpdate", "estimator_init",
+           "estimator_observe", "frame_gate", "prior_covariance", "rate_limited", "state_bounds", "window_update"]
 
 
+@dataclass(frozen=True)
+class FrameGate:
+    """The frame gate (:func:`frame_gate`): an object or pusher that moved faster than ``speed_m_s``
+    between two frames (plus ``margin_m``), or an object that turned faster than ``turn_rad_s`` (plus
+    ``margin_rad``), is an outlier, not motion: the frame is rejected and counted."""
+
+    speed_m_s: float = 0.5
+    margin_m: float = 0.01
+    turn_rad_s: float = 5.0
+    margin_rad: float = 0.1
+
+    def __post_init__(self) -> None:
+        for name in ("speed_m_s", "margin_m", "turn_rad_s", "margin_rad"):
+            check_positive(f"ukf.gate.{name}", getattr(self, name))
+
+
+@dataclass(frozen=True)
+class PriorPull:
+    """Every observation that brings no informative window relaxes the filter's mean toward the
+    prior with time constant ``time_s`` (s; None: never)."""
+
+    time_s: float | None = 30.0
+
+    def __post_init__(self) -> None:
+        if self.time_s is not None:
+            check_positive("ukf.prior_pull.time_s", self.time_s, "s, or None")
+
+
+@dataclass(frozen=True)
+class Follow:
+    """How λ_pred, what the planner uses, follows the filter's mean (:func:`rate_limited`): no faster
+    than ``rate`` per second in (ln β, x_bf m, y_bf m) (None: λ_pred is the mean), μ_c no faster than
+    ``mu_rate`` per second."""
+
+    rate: tuple[float, float, float] | None = (0.35, 0.01, 0.01)
+    mu_rate: float = 0.05
+
+    def __post_init__(self) -> None:
+        if self.rate is not None:
+            r = np.asarray(self.rate, dtype=np.float64)
+            if r.shape != (3,) or not np.all(np.isfinite(r)) or np.any(r <= 0):
+                raise ValueError(f"ukf.follow.rate must be 3 positive numbers (ln β, x_bf, y_bf per s) or None, "
+                                 f"got {self.rate!r}")
+        check_positive("ukf.follow.mu_rate", self.mu_rate, "per s")
+
+
+@grouped({"gate_speed_m_s": ("gate", "speed_m_s"), "gate_margin_m": ("gate", "margin_m"),
+          "gate_turn_rad_s": ("gate", "turn_rad_s"), "gate_margin_rad": ("gate", "margin_rad"),
+          "prior_time_s": ("prior_pull", "time_s"), "rate_limit": ("follow", "rate"),
+          "mu_rate_limit": ("follow", "mu_rate")})
 @dataclass(frozen=True)
 class UKFSettings:
     """Knobs of the λ estimator (see the module docstring for the reasons)."""
@@ -87,20 +138,15 @@ class UKFSettings:
     min_var: float = 1e-10
     contact_gap_m: float = 2e-3
     min_motion_m: float = 5e-4
-    gate_speed_m_s: float = 0.5       #: frame gate: object or pusher moving faster than this between
-    gate_margin_m: float = 0.01       #: two frames (plus this margin) is an outlier, not motion
-    gate_turn_rad_s: float = 5.0      #: likewise for the object's heading (rad/s) ...
-    gate_margin_rad: float = 0.1      #: ... plus this margin
     nis_gate: float | None = 2.0      #: NIS/m above which a window is down-weighted (None: no gating)
-    prior_time_s: float | None = 30.0 #: τ of the mean's relaxation toward the prior (None: none)
-    #: fastest change of λ_pred per second: (ln β, x_bf m, y_bf m); None: λ_pred = the filter's mean
-    rate_limit: tuple[float, float, float] | None = (0.35, 0.01, 0.01)
     bounds_from_footprint: bool = True  #: x_bf, y_bf bounds = the footprint's bounding box
     estimate_mu: bool = False         #: estimate the pusher–object friction μ_c too (a 4th state)
     mu_process_std: float = 0.005     #: μ_c's random walk per step
     mu_init_std: float = 0.1          #: μ_c's prior standard deviation
     mu_bounds: tuple[float, float] = (0.02, 1.0)  #: μ_c's bounds
-    mu_rate_limit: float = 0.05       #: fastest change of the planner's μ_c per second
+    gate: FrameGate = field(default_factory=FrameGate)          #: which frames are outliers
+    prior_pull: PriorPull = field(default_factory=PriorPull)    #: the mean's relaxation toward the prior
+    follow: Follow = field(default_factory=Follow)              #: how λ_pred follows the filter's mean
 
     def __post_init__(self) -> None:
         if int(self.window) != self.window or self.window < 1:
@@ -109,21 +155,17 @@ class UKFSettings:
             v = np.asarray(getattr(self, name), dtype=np.float64)
             if v.shape != (3,) or not np.all(np.isfinite(v)):
                 raise ValueError(f"{name} must be 3 finite numbers (β, x_bf, y_bf), got {getattr(self, name)!r}")
-        for name in ("meas_pos_std", "meas_heading_std", "alpha", "min_var", "contact_gap_m", "min_motion_m",
-                     "gate_speed_m_s", "gate_margin_m", "gate_turn_rad_s", "gate_margin_rad"):
+        for name in ("meas_pos_std", "meas_heading_std", "alpha", "min_var", "contact_gap_m", "min_motion_m"):
             check_positive(name, getattr(self, name))
-        for name in ("nis_gate", "prior_time_s"):
-            if getattr(self, name) is not None:
-                check_positive(name, getattr(self, name), "or None")
-        if self.rate_limit is not None:
-            r = np.asarray(self.rate_limit, dtype=np.float64)
-            if r.shape != (3,) or not np.all(np.isfinite(r)) or np.any(r <= 0):
-                raise ValueError(f"rate_limit must be 3 positive numbers (ln β, x_bf, y_bf per s) or None, "
-                                 f"got {self.rate_limit!r}")
+        if self.nis_gate is not None:
+            check_positive("nis_gate", self.nis_gate, "or None")
+        for name, kind in (("gate", FrameGate), ("prior_pull", PriorPull), ("follow", Follow)):
+            if not isinstance(getattr(self, name), kind):
+                raise ValueError(f"ukf.{name} must be a {kind.__name__}, got {getattr(self, name)!r}")
         for name in ("beta_ut", "kappa"):
             if not np.isfinite(getattr(self, name)):
                 raise ValueError(f"{name} must be finite, got {getattr(self, name)!r}")
-        for name in ("mu_process_std", "mu_init_std", "mu_rate_limit"):
+        for name in ("mu_process_std", "mu_init_std"):
             check_positive(name, getattr(self, name))
         if not 0 < self.mu_bounds[0] < self.mu_bounds[1]:
             raise ValueError(f"mu_bounds must satisfy 0 < low < high, got {self.mu_bounds!r}")
@@ -231,7 +273,7 @@ def state_bounds(settings: UKFSettings, box: object = None) -> tuple[jnp.ndarray
 
 
 def estimator_init(initial: jnp.ndarray, settings: UKFSettings, box: object = None,
-                   mu: float = 0.3) -> EstimatorState:
+                   mu: float = MU_C) -> EstimatorState:
     """The prior: mean ``initial`` (λ; and ``mu`` with ``settings.estimate_mu``) clipped into the
     bounds, covariance :func:`prior_covariance`, empty window.
 
@@ -251,11 +293,11 @@ def estimator_init(initial: jnp.ndarray, settings: UKFSettings, box: object = No
 
 def rate_limited(previous: jnp.ndarray, target: jnp.ndarray, dt: jnp.ndarray, settings: UKFSettings) -> jnp.ndarray:
     """λ_pred (and μ_c, a 4th entry) moved from ``previous`` toward ``target`` (the filter's mean)
-    by at most ``rate_limit``·dt: ln β, x_bf and y_bf each within its rate (μ_c within
-    ``mu_rate_limit``·dt). Pure."""
-    if settings.rate_limit is None:
+    by at most ``follow.rate``·dt: ln β, x_bf and y_bf each within its rate (μ_c within
+    ``follow.mu_rate``·dt). Pure."""
+    if settings.follow.rate is None:
         return target
-    step = jnp.asarray((*settings.rate_limit, settings.mu_rate_limit)[:previous.shape[0]], jnp.float32) * dt
+    step = jnp.asarray((*settings.follow.rate, settings.follow.mu_rate)[:previous.shape[0]], jnp.float32) * dt
     log_beta = jnp.log(previous[0]) + jnp.clip(jnp.log(target[0]) - jnp.log(previous[0]), -step[0], step[0])
     rest = previous[1:] + jnp.clip(target[1:] - previous[1:], -step[1:], step[1:])
     return jnp.concatenate([jnp.exp(log_beta)[None], rest])
@@ -264,8 +306,8 @@ def rate_limited(previous: jnp.ndarray, target: jnp.ndarray, dt: jnp.ndarray, se
 def frame_gate(last: jnp.ndarray, observation: jnp.ndarray, dt: jnp.ndarray, settings: UKFSettings) -> jnp.ndarray:
     """Whether ``observation`` (5,) may follow ``last`` (5,) after ``dt`` seconds: finite, and neither the
     object nor the pusher moved or turned faster than the gate allows (a glitched frame does)."""
-    reach = settings.gate_speed_m_s * dt + settings.gate_margin_m
-    turn = settings.gate_turn_rad_s * dt + settings.gate_margin_rad
+    reach = settings.gate.speed_m_s * dt + settings.gate.margin_m
+    turn = settings.gate.turn_rad_s * dt + settings.gate.margin_rad
     d = observation - last
     return (jnp.all(jnp.isfinite(observation)) & (jnp.hypot(d[0], d[1]) <= reach)
             & (jnp.abs(wrap_angle(d[2], jnp)) <= turn) & (jnp.hypot(d[3], d[4]) <= reach))
@@ -281,7 +323,7 @@ def estimator_observe(state: EstimatorState, observation: jnp.ndarray, valid: jn
     :func:`frame_gate` against the previous one (NaN, infinity, or a jump no pusher or object
     makes in ``dt``) is rejected the same way and counted in ``rejected``; it never reaches the
     filter. Every call without an informative window, the mean relaxes toward the prior
-    (``prior_time_s``). Should the
+    (``prior_pull.time_s``). Should the
     filter's mean or covariance still turn non-finite, it is reset to the prior (counted in
     ``resets``). Returns the new state and whether λ was updated from an informative window.
     """
@@ -295,8 +337,8 @@ def estimator_observe(state: EstimatorState, observation: jnp.ndarray, valid: jn
     new = window_update(state.filter, contour, window, dt, mu, settings, substeps, state.lower, state.upper)
     ready = count >= M1
     filt = jax.tree.map(lambda a, b: jnp.where(ready, a, b), new.filter, state.filter)
-    if settings.prior_time_s is not None:     # no information this time: relax toward the prior
-        pull = jnp.where(ready & new.informative, 0.0, -jnp.expm1(-dt / settings.prior_time_s))
+    if settings.prior_pull.time_s is not None:     # no information this time: relax toward the prior
+        pull = jnp.where(ready & new.informative, 0.0, -jnp.expm1(-dt / settings.prior_pull.time_s))
         filt = UKFState(filt.mean + pull * (state.prior - filt.mean), filt.cov)
     sound = jnp.all(jnp.isfinite(filt.mean)) & jnp.all(jnp.isfinite(filt.cov))
     prior = UKFState(state.prior, prior_covariance(settings))

@@ -16,8 +16,8 @@ and returns an improved nominal input sequence. One iteration (:func:`mppi_itera
 
 Choices the paper leaves to its reference [8] (measured in ``docs/controller.md``):
 
-* ``num_samples`` K = 1024: ≈3 ms an iteration on a 2-core CPU; 2048 and 4096 did not
-  change the outcomes we measured.
+* ``num_samples`` K = 1024: more samples do not change the outcomes, fewer cost success on the
+  physics plant (docs/performance.md#samples-against-success-a-pareto-table).
 * sampling noise, a two-part mixture. Half of the samples *explore* with the paper's
   σ = 0.12 m/s (Table II), drawn at ``explore_knots`` = 3 knots over the horizon and
   linearly interpolated, so an exploring sample is a coherent move (a walk around the
@@ -30,7 +30,7 @@ Choices the paper leaves to its reference [8] (measured in ``docs/controller.md`
   The costs of eq. (9) span eight orders of magnitude between "0.6 m away" and "2 mm
   away", and C_pen = 1e13 makes the mean useless; the median-to-best spread keeps the
   weighting equally selective everywhere. A caller may pass another τ per iteration
-  (the controller does near the goal: ``ControllerSettings.endgame_temperature``).
+  (the controller does near the goal: ``ControllerSettings.endgame.temperature``).
 * control cost q_u·Σ Δt_k‖v_k‖² with q_u = 1: an effort tie-breaker worth ~0.03 cost
   units for a full-speed 3-s horizon, small against millimetre goal errors.
 * warm start: the nominal sequence is a piecewise-constant function of time on the
@@ -59,6 +59,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive
+from dexpush.common.interfaces import CONTROL_PERIOD_S
 from dexpush.control import noise
 
 __all__ = ["MPPIResult", "MPPISettings", "mppi_iteration", "shift_in_time", "slot_durations"]
@@ -73,7 +74,7 @@ class MPPISettings:
 
     num_samples: int = 1024       #: K, sampled input sequences per iteration
     horizon: int = 25             #: N_p, prediction steps (Table II)
-    dt0: float = 0.04             #: Δt₀ (s), first prediction step (Table II)
+    dt0: float = CONTROL_PERIOD_S #: Δt₀ (s), first prediction step (Table II: the control period)
     growth: float = 2.0           #: Δt_k = Δt₀·exp(growth·k/N_p) (paper: 2)
     noise_sigma: float = 0.12     #: σ of Σ = diag(σ, σ)² (m/s, Table II): the exploring samples
     refine_sigma: float = 0.03    #: σ of the refining samples around the nominal sequence (m/s)
@@ -83,7 +84,7 @@ class MPPISettings:
     v_max: float = 0.1            #: pusher speed limit (m/s); clipped per axis to ±v_max/√2 (10)
     temperature: float = 0.02     #: τ, relative temperature λ = τ·(median S − min S)
     control_cost: float = 1.0     #: q_u of the effort term q_u·Σ Δt_k‖v_k‖²
-    control_period: float = 0.04  #: T (s), time between iterations; the warm-start shift
+    control_period: float = CONTROL_PERIOD_S  #: T (s), time between iterations; the warm-start shift
     #: the update: "sampled" averages the sampled inputs U + ε and clips the average, the input bound (10)
     #: being part of the dynamics as in Williams et al.'s MPPI; "clipped" averages the clipped samples, as
     #: pytorch_mppi does, which drags a nominal at the bound inward (docs/controller.md#the-update)
@@ -128,7 +129,7 @@ def _hat_basis(n: int, knots: int) -> np.ndarray:
 
 
 def _median(S: jnp.ndarray) -> jnp.ndarray:
-    """``jnp.median`` of a 1-D array by one partition instead of a full sort (3× faster at K = 1024)."""
+    """``jnp.median`` of a 1-D array by one partition instead of a full sort."""
     n = S.shape[0]
     m = n // 2
     part = jnp.partition(S, m)
@@ -173,8 +174,8 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
     quasi-static pushing is: holding s·v for Δt moves the state as holding v for s·Δt) the
     rollout holds s_k·v_k for the unstretched Δt_k instead of v_k for s_k·Δt_k: the same
     states (and the effort is charged as for v_k over s_k·Δt_k), but the slots stay constants
-    of the program while s is traced (a traced slot per lane made the batched simulator's step
-    2.2× slower, docs/performance.md).
+    of the program while s is traced (a traced slot per lane slows the batched simulator's step,
+    docs/performance.md).
     ``temperature``, if given, is this iteration's τ in place of ``settings.temperature``.
     ``proposals`` (J, N_p, 2), if given, take the place of the last J exploring samples, clipped as
     they are (10): sequences the caller knows to be worth a try (:mod:`dexpush.control.proposals`), weighted

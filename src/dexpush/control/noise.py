@@ -1,9 +1,8 @@
 """Counter-based Gaussian noise for MPPI: a keyed integer hash of each sample's index, then Box–Muller.
 
-MPPI draws ~28,000 standard normals an iteration (K = 1024, N_p = 25). On the 2-core
-CPUs we target, ``jax.random.normal`` with its default threefry generator took 0.44 ms for
-them, a quarter of the whole iteration, and the ``rbg`` generators were slower still
-(``benchmarks/mppi_speed.py --noise`` prints the comparison). Here each normal costs
+MPPI draws ~28,000 standard normals an iteration (K = 1024, N_p = 25). On the CPU,
+``jax.random.normal``'s threefry generator costs a sizeable share of the iteration, and the
+``rbg`` generators more (``benchmarks/mppi_speed.py --noise`` prints the comparison). Here each normal costs
 four evaluations of a 32-bit integer hash and a Box–Muller transform:
 
     h_j(i) = mix(mix(2i + j + k₀) ⊕ k₁),  j = 0, 1                   (k₀, k₁: the key's 2 words)
@@ -47,7 +46,7 @@ def normal(key: jax.Array, shape: tuple[int, ...], dtype: jnp.dtype = jnp.float3
 
     Each element uses the cosine half of its own Box–Muller pair: the same operations for every
     element, so XLA fuses the generator into its consumer as one vectorised loop (pairing the
-    cosine and sine halves halved the hashing but split the loop into branches, 5× slower).
+    cosine and sine halves would halve the hashing but split the loop into slower branches).
     Float64 requests get float32-quality draws (24-bit uniforms) cast to float64.
     """
     words = jax.random.key_data(key) if jnp.issubdtype(key.dtype, jax.dtypes.prng_key) else key

@@ -13,107 +13,23 @@ so the benchmark and a robot run the very same controller.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.common.checks import check_nonnegative, check_positive
 from dexpush.common.se2 import wrap_angle
-from dexpush.control.estimator import EstimatorState, UKFSettings, estimator_init, estimator_observe, rate_limited
-from dexpush.control.mppi import MPPIResult, MPPISettings, mppi_iteration, shift_in_time, slot_durations
+from dexpush.control.estimator import EstimatorState, estimator_init, estimator_observe, rate_limited
+from dexpush.control.mppi import MPPIResult, mppi_iteration, shift_in_time, slot_durations
 from dexpush.control.proposals import contact_proposals
+from dexpush.control.settings import ControllerSettings
 from dexpush.model.cgvmm import Contour, contact_gap, step
 from dexpush.problem.cost import goal_distance_sq, plan_margin, running_cost, terminal_cost
 from dexpush.problem.scene import Scene
-from dexpush.problem.weights import CostWeights
 
 __all__ = ["ControllerSettings", "ControllerState", "estimate_step", "plan_step", "policy_init", "policy_step",
            "watch_progress"]
-
-
-@dataclass(frozen=True)
-class ControllerSettings:
-    """Everything the controller needs besides the shape and goal."""
-
-    mppi: MPPISettings = field(default_factory=MPPISettings)
-    weights: CostWeights = field(default_factory=CostWeights)
-    mu: float = 0.3               #: pusher–object friction μ_c assumed by the model
-    estimate_params: bool = False #: run the UKF (paper Fig. 5) and plan with its estimate
-    ukf: UKFSettings = field(default_factory=UKFSettings)
-    ukf_substeps: int = 10        #: Euler substeps per period in the UKF's window replay
-    #: restart the planner (zero warm start) when the object has come no closer to the goal, in
-    #: position or in heading, for this long (s) out of contact; None never does.
-    #: See docs/controller.md#stalls.
-    stall_after_s: float | None = 4.0
-    #: progress is an improvement of the position error by this much (m) or of the heading error by
-    #: ``stall_progress_deg``, whichever of the two errors is the larger in these units
-    stall_progress_m: float = 0.005
-    stall_progress_deg: float = 2.0
-    #: the stall clock runs only while the pusher is farther than this (m) from the contour ...
-    stall_contact_gap_m: float = 0.005
-    #: ... and the object is not within both of these of the goal (m, degrees): the final approach
-    #: to the success tolerances (8 mm, 3°) is slow by nature
-    stall_min_distance_m: float = 0.015
-    stall_min_heading_deg: float = 5.0
-    #: each restart without progress since the last one makes the next wait this many times longer
-    stall_backoff: float = 2.0
-    #: after a stall the planner looks this many times further ahead (every slot Δt_k after the first
-    #: stretched), until the object comes closer again or is near the goal; 1 keeps the paper's
-    #: horizon (measured: docs/controller.md#stalls)
-    stall_horizon_scale: float = 2.0
-    #: MPPI's relative temperature τ while the object is within ``endgame_distance_m`` of the goal
-    #: (position error, round the obstacles); None keeps ``mppi.temperature`` everywhere. A last
-    #: push of 1–3 cm is found by few samples, and at τ = 0.02 their weight was shared with many that
-    #: hover (docs/controller.md#the-endgame-temperature)
-    endgame_temperature: float | None = 0.005
-    endgame_distance_m: float = 0.04
-    #: this many of MPPI's exploring samples are contact proposals (:mod:`dexpush.control.proposals`): walks
-    #: round the object to J evenly spaced contact points, then a push; 0 samples only noise
-    #: (docs/controller.md#contact-proposals)
-    contact_proposals: int = 0
-    proposal_clearance_m: float = 0.015   #: the walks' radial distance from the inflated contour
-    #: with :meth:`PushingController.act`, the plan's obstacle margin grows by this many times the
-    #: distance (m) the object's footprint was predicted forward from the newest frame to the present
-    #: (latency, lost frames), up to ``prediction_margin_max_m`` more: that prediction's error grows with
-    #: it. 0 keeps the margin at ``weights.obstacle_margin_m``, as does the binary margin (``weights.C_margin``
-    #: None), which has no plan margin to grow (docs/controller.md#the-margin-grows-with-the-prediction)
-    prediction_margin_gain: float = 0.5
-    prediction_margin_max_m: float = 0.02
-
-    def __post_init__(self) -> None:
-        for name, kind in (("mppi", MPPISettings), ("weights", CostWeights), ("ukf", UKFSettings)):
-            if not isinstance(getattr(self, name), kind):
-                raise ValueError(f"{name} must be a {kind.__name__}, got {getattr(self, name)!r}")
-        check_positive("mu", self.mu, "pusher–object friction coefficient")
-        if not isinstance(self.estimate_params, bool | np.bool_):
-            raise ValueError(f"estimate_params must be True or False, got {self.estimate_params!r}")
-        if int(self.ukf_substeps) != self.ukf_substeps or self.ukf_substeps < 1:
-            raise ValueError(f"ukf_substeps must be a whole number >= 1, got {self.ukf_substeps!r}")
-        if self.stall_after_s is not None:
-            check_positive("stall_after_s", self.stall_after_s, "s, or None")
-        for name in ("stall_progress_m", "stall_contact_gap_m"):
-            check_positive(name, getattr(self, name), "m")
-        check_positive("stall_progress_deg", self.stall_progress_deg, "degrees")
-        check_nonnegative("stall_min_distance_m", self.stall_min_distance_m, "m")
-        check_nonnegative("stall_min_heading_deg", self.stall_min_heading_deg, "degrees")
-        if not self.stall_backoff >= 1.0:
-            raise ValueError(f"stall_backoff must be >= 1, got {self.stall_backoff!r}")
-        if not self.stall_horizon_scale >= 1.0:
-            raise ValueError(f"stall_horizon_scale must be >= 1, got {self.stall_horizon_scale!r}")
-        if self.endgame_temperature is not None:
-            check_positive("endgame_temperature", self.endgame_temperature, "or None")
-        check_nonnegative("endgame_distance_m", self.endgame_distance_m, "m")
-        if int(self.contact_proposals) != self.contact_proposals or not (
-                0 <= self.contact_proposals <= self.mppi.num_samples - round(self.mppi.refine_fraction
-                                                                             * self.mppi.num_samples) - 1):
-            raise ValueError(f"contact_proposals must be a whole number from 0 to the exploring samples less one, "
-                             f"got {self.contact_proposals!r}")
-        check_positive("proposal_clearance_m", self.proposal_clearance_m, "m")
-        check_nonnegative("prediction_margin_gain", self.prediction_margin_gain)
-        check_nonnegative("prediction_margin_max_m", self.prediction_margin_max_m, "m")
 
 
 class ControllerState(NamedTuple):
@@ -127,9 +43,9 @@ class ControllerState(NamedTuple):
     #: the smallest error E (:func:`watch_progress`) planned from so far, less progress since
     best: jnp.ndarray
     idle: jnp.ndarray            #: time (s) the stall clock has run since the last progress or restart
-    stalls: jnp.ndarray          #: planner restarts after a stall (``ControllerSettings.stall_after_s``)
+    stalls: jnp.ndarray          #: planner restarts after a stall (``ControllerSettings.stall.after_s``)
     streak: jnp.ndarray          #: restarts since the last progress (the clock's backoff exponent)
-    stretch: jnp.ndarray         #: the horizon's current scale: 1, or ``stall_horizon_scale`` after a stall
+    stretch: jnp.ndarray         #: the horizon's current scale: 1, or ``stall.horizon_scale`` after a stall
 
 
 def policy_init(params: object, settings: ControllerSettings, seed: int | jnp.ndarray,
@@ -173,9 +89,9 @@ def estimate_step(state: ControllerState, observation: jnp.ndarray, estimate: jn
             return state
         est, lam, mu = observe(state)
     else:
-        # a traced flag (one per lane in dexpush.experiments.simulate): compute the update and select it. A lax.cond
-        # turns into a select of both branches under vmap anyway, and that form measured ~9× slower than
-        # this one (26 against 3 ms for 8 lanes of the T: docs/performance.md#the-estimators-switch)
+        # a traced flag (one per lane in dexpush.experiments.simulate): compute the update and select it. A
+        # lax.cond turns into a select of both branches under vmap anyway, and a slower one
+        # (docs/performance.md#the-estimators-switch)
         on = jnp.asarray(estimate)
         est, lam, mu = jax.tree.map(lambda a, b: jnp.where(on, a, b), observe(state),
                                     (state.estimator, state.params, state.mu))
@@ -186,42 +102,42 @@ def watch_progress(state: ControllerState, x: jnp.ndarray, *, contour: Contour, 
                    settings: ControllerSettings) -> tuple[ControllerState, jnp.ndarray]:
     """Stall detection, once per control period: (state, whether to restart the planner now).
 
-    A stall is no progress toward the goal and no contact for a while (issue 15). Progress is
+    A stall is no progress toward the goal and no contact for a while. Progress is
     measured in the success test's own terms, position and heading each in its own unit: with
     the position error e_p (the length of the path to the goal, round the obstacles with
     ``CostWeights.detour``: :func:`dexpush.problem.cost.goal_distance_sq` with c = 0) and the heading
     error e_θ = |θ − θ_g|, the error is
 
-        E = max(e_p / stall_progress_m, e_θ / stall_progress_deg),
+        E = max(e_p / stall.progress_m, e_θ / stall.progress_deg),
 
     and progress is a new best E, lower by at least 1 than the best so far: 5 mm closer, or
     2° less turned where the heading is the larger error (a slow final turn is progress,
     though it hardly moves d of eq. 9b). Progress restarts the clock ``idle``, which
-    otherwise runs while the pusher is more than ``stall_contact_gap_m`` off the contour and
-    the object is not within both ``stall_min_distance_m`` and ``stall_min_heading_deg`` of
-    the goal. When ``idle`` reaches ``stall_after_s`` · ``stall_backoff``^streak (streak:
+    otherwise runs while the pusher is more than ``stall.contact_gap_m`` off the contour and
+    the object is not within both ``stall.min_distance_m`` and ``stall.min_heading_deg`` of
+    the goal. When ``idle`` reaches ``stall.after_s`` · ``stall.backoff``^streak (streak:
     restarts since the last progress, so that a walk round the object that takes longer
     than one stall time is not cut short again and again), the planner restarts from a zero
-    warm start with its horizon stretched ``stall_horizon_scale`` times
+    warm start with its horizon stretched ``stall.horizon_scale`` times
     (:func:`dexpush.control.mppi.slot_durations`: a push that needs a long walk round the object
     first comes into view), and the clock restarts. The horizon is the paper's again at the
     next progress, or as soon as the object is near the goal (the endgame needs the fine
     slots). Pure and jit-able.
     """
-    if settings.stall_after_s is None:
+    if settings.stall.after_s is None:
         return state, jnp.bool_(False)
     T = settings.mppi.control_period
     e_p = jnp.sqrt(goal_distance_sq(x, scene, 0.0))
     e_th = jnp.abs(wrap_angle(x[2] - scene.goal[2], jnp))
-    error = jnp.maximum(e_p / settings.stall_progress_m, e_th / np.radians(settings.stall_progress_deg))
+    error = jnp.maximum(e_p / settings.stall.progress_m, e_th / np.radians(settings.stall.progress_deg))
     improved = error <= state.best - 1.0
-    near = (e_p <= settings.stall_min_distance_m) & (e_th <= np.radians(settings.stall_min_heading_deg))
-    away = (contact_gap(contour, x) > settings.stall_contact_gap_m) & ~near
+    near = (e_p <= settings.stall.min_distance_m) & (e_th <= np.radians(settings.stall.min_heading_deg))
+    away = (contact_gap(contour, x) > settings.stall.contact_gap_m) & ~near
     idle = jnp.where(improved, 0.0, state.idle + jnp.where(away, T, 0.0))
     streak = jnp.where(improved, 0, state.streak)
-    patience = settings.stall_after_s * jnp.float32(settings.stall_backoff) ** streak.astype(jnp.float32)
+    patience = settings.stall.after_s * jnp.float32(settings.stall.backoff) ** streak.astype(jnp.float32)
     stalled = idle >= patience - 0.5 * T    # (float32 sums of T)
-    scale = jnp.float32(settings.stall_horizon_scale)
+    scale = jnp.float32(settings.stall.horizon_scale)
     stretch = jnp.where(stalled, scale, jnp.where(improved | near, 1.0, state.stretch))
     restarts = stalled.astype(jnp.int32)
     return state._replace(best=jnp.where(improved, error, state.best), idle=jnp.where(stalled, 0.0, idle),
@@ -229,11 +145,11 @@ def watch_progress(state: ControllerState, x: jnp.ndarray, *, contour: Contour, 
 
 
 def _temperature(x: jnp.ndarray, scene: Scene, settings: ControllerSettings) -> jnp.ndarray | None:
-    """τ for this iteration: ``endgame_temperature`` within ``endgame_distance_m`` of the goal."""
-    if settings.endgame_temperature is None:
+    """τ for this iteration: ``endgame.temperature`` within ``endgame.distance_m`` of the goal."""
+    if settings.endgame.temperature is None:
         return None
-    near = goal_distance_sq(x, scene, 0.0) <= settings.endgame_distance_m ** 2
-    return jnp.where(near, jnp.float32(settings.endgame_temperature), jnp.float32(settings.mppi.temperature))
+    near = goal_distance_sq(x, scene, 0.0) <= settings.endgame.distance_m ** 2
+    return jnp.where(near, jnp.float32(settings.endgame.temperature), jnp.float32(settings.mppi.temperature))
 
 
 def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene: Scene,
@@ -244,25 +160,25 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
     The command is the first input of the new sequence, clipped to ±v_max/√2 (zero, and a
     reset sequence, should it ever be non-finite); the sequence is shifted by the control
     period as the next warm start. A stall (:func:`watch_progress`) zeroes the warm start first.
-    Within ``endgame_distance_m`` of the goal the iteration weights its samples with
-    ``endgame_temperature``. From a state inside the obstacle margin the plan may not come nearer
+    Within ``endgame.distance_m`` of the goal the iteration weights its samples with
+    ``endgame.temperature``. From a state inside the obstacle margin the plan may not come nearer
     than that state (:func:`dexpush.problem.cost.plan_margin`). ``predicted_m`` is how far (m) the
     object's footprint moved in the prediction that made ``x`` from the newest frame (0 for an
-    observation); the margin grows by ``prediction_margin_gain`` times it, up to
-    ``prediction_margin_max_m`` more.
+    observation); the margin grows by ``prediction_margin.gain`` times it, up to
+    ``prediction_margin.max_m`` more.
     """
     mp = settings.mppi
     x = jnp.asarray(x, jnp.float32)
     stretch = 1.0   # without a possible stretch the scale is a Python constant; a traced one reaches the
-    if settings.stall_after_s is not None:      # rollouts as a factor on the inputs (rate_independent below)
+    if settings.stall.after_s is not None:      # rollouts as a factor on the inputs (rate_independent below)
         state, stalled = watch_progress(state, x, contour=contour, scene=scene, settings=settings)
         state = state._replace(sequence=jnp.where(stalled, 0.0, state.sequence))
-        if settings.stall_horizon_scale != 1.0:
+        if settings.stall.horizon_scale != 1.0:
             stretch = state.stretch
     key, sub = jax.random.split(state.key)
     weights, mu = settings.weights, state.mu
-    extra = (jnp.minimum(settings.prediction_margin_gain * jnp.asarray(predicted_m, jnp.float32),
-                         settings.prediction_margin_max_m) if settings.prediction_margin_gain else 0.0)
+    extra = (jnp.minimum(settings.prediction_margin.gain * jnp.asarray(predicted_m, jnp.float32),
+                         settings.prediction_margin.max_m) if settings.prediction_margin.gain else 0.0)
     plan_scene = plan_margin(x, scene, weights, extra)     # from inside the margin: no nearer than now
     durations = slot_durations(mp, stretch)
     result = mppi_iteration(
@@ -271,8 +187,8 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
         running_cost=lambda xs, sc: running_cost(xs, sc, weights),
         terminal_cost=lambda xs, sc: terminal_cost(xs, sc, weights), settings=mp, horizon_scale=stretch,
         temperature=_temperature(x, scene, settings), rate_independent=True,   # quasi-static: see mppi_iteration
-        proposals=contact_proposals(x, contour, durations, settings.contact_proposals,
-                                    mp.v_clip, settings.proposal_clearance_m) if settings.contact_proposals else None)
+        proposals=contact_proposals(x, contour, durations, settings.proposals.count,
+                                    mp.v_clip, settings.proposals.clearance_m) if settings.proposals.count else None)
     finite = jnp.all(jnp.isfinite(result.sequence))
     u = jnp.where(finite, jnp.clip(result.sequence[0], -mp.v_clip, mp.v_clip), 0.0)
     shifted = jnp.where(finite, shift_in_time(result.sequence, durations, mp.control_period), 0.0)

@@ -13,6 +13,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from dexpush.common.interfaces import CONTROL_PERIOD_S
 from dexpush.common.se2 import pose_error
 from dexpush.experiments.methods import get_method
 from dexpush.experiments.simulate import TrialResult
@@ -27,7 +28,7 @@ CONDITION_KEYS = ("task", "shape", "params", "method")
 
 #: a trajectory is labelled (contact modes, obstacle touches) padded to a multiple of this many
 #: steps, so the jitted labelling compiles once per block count, not once per trajectory length
-#: (each compile took 3–4 s, more than the trial's own simulation: docs/performance.md#the-720-trial-table)
+#: (a compile costs more than a trial's own simulation: docs/performance.md#the-720-trial-table)
 LABEL_BLOCK = 256
 
 def _in_blocks(a: np.ndarray) -> np.ndarray:
@@ -118,7 +119,7 @@ class Condition(NamedTuple):
 
 
 def make_episode(problem: Problem, condition: Condition, result: TrialResult, lanes: int, plant: str = "model",
-                 sensor: SensorSettings | None = None, control_period: float = 0.04) -> Episode:
+                 sensor: SensorSettings | None = None, control_period: float = CONTROL_PERIOD_S) -> Episode:
     """The record (docs/conventions.md#benchmark-tasks) and trajectory of a finished trial of ``problem``.
 
     Contact modes are labelled with the C-GVMM at λ_true (for the trajectory figure); obstacle

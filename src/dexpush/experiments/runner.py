@@ -27,7 +27,7 @@ from dataclasses import replace
 import numpy as np
 
 from dexpush.common.checks import check_params, checked_vector
-from dexpush.common.interfaces import Controller, Plant, check_plant
+from dexpush.common.interfaces import CONTROL_PERIOD_S, Controller, Plant, check_plant
 from dexpush.common.progress import progress_bar
 from dexpush.control.controller import ControllerSettings
 from dexpush.experiments.methods import Method, get_method
@@ -62,7 +62,7 @@ def _problem_and_start(problem: Problem | Task, args: tuple, object_pose: object
 
 
 def run_loop(plant: Plant, controller: Controller, problem: Problem, *args: object, object_pose: object = None,
-             pusher_xy: object = None, sensor: SensorSettings | None = None, control_period: float = 0.04,
+             pusher_xy: object = None, sensor: SensorSettings | None = None, control_period: float = CONTROL_PERIOD_S,
              max_steps: int = MAX_STEPS, spec: TrialSpec | None = None, progress: bool = False,
              desc: str = "episode") -> TrialResult:
     """Run ``controller`` on ``plant`` from the start ``object_pose``, ``pusher_xy`` until success,

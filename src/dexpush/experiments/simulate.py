@@ -40,7 +40,7 @@ from dexpush.common.checks import check_params, checked_vector
 from dexpush.common.progress import progress_bar
 from dexpush.control.policy import ControllerSettings, ControllerState, policy_init, policy_step
 from dexpush.experiments.scenarios import MAX_STEPS
-from dexpush.model.cgvmm import LAMBDA_TRUE, Contour, integrate
+from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C, Contour, integrate
 from dexpush.problem.problem import Problem, is_success
 from dexpush.problem.scene import Scene
 
@@ -136,7 +136,7 @@ def _set_lane(lanes: Lane, i: int, lane: Lane) -> Lane:
 def simulate(problem: Problem, trials: Sequence[TrialSpec], settings: ControllerSettings | None = None, *,
              starts: Starts, max_steps: int = MAX_STEPS, lanes: int = 32, chunk: int = 25,
              plant_params: object = LAMBDA_TRUE,
-             plant_mu: float = 0.3, substeps: int = 10,
+             plant_mu: float = MU_C, substeps: int = 10,
              on_result: Callable[[TrialResult], None] | None = None, progress: bool = False,
              desc: str = "trials") -> list[TrialResult]:
     """Run ``trials`` of ``problem`` in closed loop on the model plant, batched.

@@ -8,10 +8,12 @@ from dataclasses import replace
 import numpy as np
 
 from dexpush.common.checks import check_params, checked_vector
+from dexpush.common.interfaces import CONTROL_PERIOD_S
 from dexpush.gcs.graph import build_graph, solve_relaxation, two_mode_paths
 from dexpush.gcs.problem import Plan, make_problem
 from dexpush.gcs.rounding import round_path, timed_reference
 from dexpush.gcs.settings import GCSSettings, PlanningError
+from dexpush.model.cgvmm import MU_C
 from dexpush.model.shape import Shape
 
 __all__ = ["plan_push"]
@@ -25,7 +27,7 @@ def _quiet_drake() -> None:
 
 
 def plan_push(shape: Shape, start: object, pusher: object, goal: object, params: object,
-              mu: float = 0.3, settings: GCSSettings | None = None, dt: float = 0.04) -> Plan:
+              mu: float = MU_C, settings: GCSSettings | None = None, dt: float = CONTROL_PERIOD_S) -> Plan:
     """Plan a push of ``shape`` from ``start`` (x, y, θ) with the pusher at ``pusher`` to ``goal``.
 
     The plan uses ``params`` (λ = [β, x_bf, y_bf]) in the limit surface and the

@@ -7,10 +7,12 @@ import time
 import numpy as np
 
 from dexpush.common.checks import checked_vector
+from dexpush.common.interfaces import CONTROL_PERIOD_S
 from dexpush.common.se2 import pose_error
 from dexpush.gcs.planner import plan_push
 from dexpush.gcs.problem import Plan
 from dexpush.gcs.settings import GCSSettings, PlanningError
+from dexpush.model.cgvmm import MU_C
 from dexpush.model.shape import Shape
 
 __all__ = ["GCSTracker"]
@@ -39,8 +41,8 @@ class GCSTracker:
     planning attempt, failed ones included), ``failures`` (why the failed ones failed).
     """
 
-    def __init__(self, shape: Shape, goal: object, params: object, mu: float = 0.3,
-                 settings: GCSSettings | None = None, control_period: float = 0.04, v_max: float = 0.1,
+    def __init__(self, shape: Shape, goal: object, params: object, mu: float = MU_C,
+                 settings: GCSSettings | None = None, control_period: float = CONTROL_PERIOD_S, v_max: float = 0.1,
                  replan_m: float = 0.01, replan_deg: float = 4.0, max_replans: int = 40) -> None:
         self.shape, self.goal = shape, checked_vector("goal", goal, 3)
         self._params, self.mu = checked_vector("params", params, 3), float(mu)

@@ -49,6 +49,7 @@ __all__ = [
     "FREE",
     "LAMBDA_TRUE",
     "MODE_NAMES",
+    "MU_C",
     "SLIDE_CCW",
     "SLIDE_CW",
     "STICK",
@@ -70,6 +71,9 @@ STICK, SLIDE_CCW, SLIDE_CW, FREE, CORNER = 0, 1, 2, 3, 4
 MODE_NAMES = ("stick", "slide_ccw", "slide_cw", "free", "corner")
 #: λ_true of the paper's numerical experiments (Sec. IV-B): [β, x_bf, y_bf]
 LAMBDA_TRUE = (25.0, -0.01, 0.02)
+#: the pusher–object friction coefficient μ_c the model, the model plant and the controller assume
+#: unless told otherwise
+MU_C = 0.3
 #: contact test tolerance (m): in contact iff |p_c − p_b| ≤ |r(φ_c)| + CONTACT_TOL. One micron
 #: is far below any physical scale but above float32 round-off of metre-scale coordinates,
 #: so a pusher that the integrator left exactly on the contour stays in contact.
@@ -180,7 +184,7 @@ def components(x: State) -> tuple[jnp.ndarray, ...]:
 
     Rollouts carry the state as a tuple of (K,) arrays: stacking components into one
     (K, 5) array every step makes XLA's CPU backend re-evaluate the whole shared model
-    expression once per stacked component (measured 2–3× slower rollouts).
+    expression once per stacked component (docs/performance.md).
     """
     return tuple(x) if isinstance(x, tuple | list) else tuple(x[..., i] for i in range(x.shape[-1]))
 
@@ -269,7 +273,7 @@ def _solve(contour: Contour, xs: tuple[jnp.ndarray, ...], u: jnp.ndarray, params
 
 
 def solve_contact(contour: Contour, x: State, u: jnp.ndarray, params: jnp.ndarray,
-                  mu: float | jnp.ndarray = 0.3, alpha: float | jnp.ndarray = 1.0) -> ContactSolution:
+                  mu: float | jnp.ndarray = MU_C, alpha: float | jnp.ndarray = 1.0) -> ContactSolution:
     """Algorithm 1 of the paper (single contact), traceable and broadcast over leading axes.
 
     This is the unchecked core: inputs must already be arrays of matching dtype. Use
@@ -334,7 +338,7 @@ def _resolve(contour: Contour, xs: tuple[jnp.ndarray, ...], keep_contact: jnp.nd
 
 
 def step(contour: Contour, x: State, u: jnp.ndarray, dt: float | jnp.ndarray,
-         params: jnp.ndarray, mu: float | jnp.ndarray = 0.3) -> State:
+         params: jnp.ndarray, mu: float | jnp.ndarray = MU_C) -> State:
     """One explicit-Euler step of the C-GVMM followed by :func:`resolve_penetration`.
 
     ``step(x, u, λ) -> x'`` is what MPPI rolls out and what the model plant integrates
@@ -355,14 +359,14 @@ def step(contour: Contour, x: State, u: jnp.ndarray, dt: float | jnp.ndarray,
 
 
 def integrate(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, duration: float | jnp.ndarray,
-              params: jnp.ndarray, mu: float | jnp.ndarray = 0.3, substeps: int = 10) -> jnp.ndarray:
+              params: jnp.ndarray, mu: float | jnp.ndarray = MU_C, substeps: int = 10) -> jnp.ndarray:
     """Hold ``u`` for ``duration`` seconds, integrating with ``substeps`` calls of :func:`step`."""
     h = duration / substeps
     return jax.lax.fori_loop(0, substeps, lambda _, xi: step(contour, xi, u, h, params, mu), x)
 
 
 def replay(contour: Contour, x0: jnp.ndarray, inputs: jnp.ndarray, dt: float | jnp.ndarray,
-           params: jnp.ndarray, mu: float | jnp.ndarray = 0.3, substeps: int = 10) -> jnp.ndarray:
+           params: jnp.ndarray, mu: float | jnp.ndarray = MU_C, substeps: int = 10) -> jnp.ndarray:
     """States (T, 5) after each of the T inputs (T, 2), each held for ``dt`` from ``x0`` (5,).
 
     An open-loop replay of recorded pusher motion: the UKF's measurement model and the
@@ -405,7 +409,7 @@ def _solve_jit(contour: Contour, x: jnp.ndarray, u: jnp.ndarray, params: jnp.nda
 
 
 def contact_solution(shape: Shape | Contour, x: object, u: object, params: object = LAMBDA_TRUE,
-                     mu: float = 0.3, alpha: float = 1.0) -> ContactSolution:
+                     mu: float = MU_C, alpha: float = 1.0) -> ContactSolution:
     """Checked, jit-compiled :func:`solve_contact`: every quantity of Algorithm 1.
 
     Raises ``ValueError`` for NaN/inf input, wrong trailing sizes, β ≤ 0 or μ ≤ 0.
@@ -433,7 +437,7 @@ def contact_solution(shape: Shape | Contour, x: object, u: object, params: objec
 
 
 def cgvmm(shape: Shape | Contour, x: object, u: object, params: object = LAMBDA_TRUE,
-          mu: float = 0.3, alpha: float = 1.0) -> tuple[jnp.ndarray, jnp.ndarray]:
+          mu: float = MU_C, alpha: float = 1.0) -> tuple[jnp.ndarray, jnp.ndarray]:
     """The C-GVMM (Algorithm 1): state derivative and contact mode.
 
     Args:

@@ -43,8 +43,7 @@ class Scene:
         the inflated contour. Table II's r_s = 0.2 m suits the paper's objects, but the
         standard T reaches 0.187 m from its reference: with r_s = 0.2 the ReLU term (9d)
         charges q_r2 = 1e4 per metre and step for walking around the stem, which traps
-        the pusher on one side of it. Measured (docs/controller.md): the three tee
-        episodes of seeds 0–4 that failed with 0.2 all succeed with 0.237.
+        the pusher on one side of it (docs/controller.md).
         """
         w = weights or CostWeights()
         g = np.asarray(goal, dtype=np.float64)

@@ -21,8 +21,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.common.checks import check_params, check_positive, checked_vector
-from dexpush.common.interfaces import Observation
-from dexpush.model.cgvmm import LAMBDA_TRUE, Contour, contact_gap, integrate
+from dexpush.common.interfaces import CONTROL_PERIOD_S, Observation
+from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C, Contour, contact_gap, integrate
 from dexpush.model.shape import Shape
 
 __all__ = ["ModelPlant"]
@@ -55,7 +55,7 @@ class ModelPlant:
         substeps: Euler substeps per ``step`` call (≥ 10, docs/conventions.md#plants).
     """
 
-    def __init__(self, shape: Shape, params: object = LAMBDA_TRUE, mu: float = 0.3,
+    def __init__(self, shape: Shape, params: object = LAMBDA_TRUE, mu: float = MU_C,
                  substeps: int = 10) -> None:
         if substeps < 10:
             raise ValueError(f"substeps must be >= 10 (docs/conventions.md#plants), got {substeps}")
@@ -99,7 +99,7 @@ class ModelPlant:
         self.max_penetration = 0.0
         return self.observe()
 
-    def step(self, velocity: object, dt: float = 0.04) -> Observation:
+    def step(self, velocity: object, dt: float = CONTROL_PERIOD_S) -> Observation:
         """Hold the pusher velocity (m/s, world frame) for ``dt`` seconds; return the observation."""
         if self._x is None:
             raise RuntimeError("call reset() before step()")

@@ -12,7 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.common.checks import check_positive, checked_vector
-from dexpush.common.interfaces import Observation
+from dexpush.common.interfaces import CONTROL_PERIOD_S, Observation
 from dexpush.model.cgvmm import Contour, contact_gap
 from dexpush.model.convex_pieces import convex_pieces
 from dexpush.model.polygons import convex_hull, distance_to_polygons
@@ -243,7 +243,7 @@ class PhysicsPlant:
         self._ready = True
         return self.observe()
 
-    def step(self, velocity: object, dt: float = 0.04) -> Observation:
+    def step(self, velocity: object, dt: float = CONTROL_PERIOD_S) -> Observation:
         """Move the pusher at ``velocity`` (m/s, world frame) for ``dt`` seconds of physics."""
         if not self._ready:
             raise RuntimeError("call reset() before step()")

@@ -26,9 +26,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive, checked_vector
-from dexpush.common.interfaces import Frame, Plant, check_plant
+from dexpush.common.interfaces import CONTROL_PERIOD_S, Frame, Plant, check_plant
 
-__all__ = ["Camera", "SensorSettings"]
+__all__ = ["MAX_CAMERA_HZ", "Camera", "SensorSettings"]
+
+#: the fastest camera rate (Hz) accepted: each frame is a capture instant the plant's step is split at
+MAX_CAMERA_HZ = 1000.0
 
 @dataclass(frozen=True)
 class SensorSettings:
@@ -47,6 +50,8 @@ class SensorSettings:
             check_nonnegative(name, getattr(self, name))
         if self.rate_hz is not None:
             check_positive("rate_hz", self.rate_hz, "Hz, or None for one frame per control period")
+            if self.rate_hz > MAX_CAMERA_HZ:
+                raise ValueError(f"rate_hz must be at most {MAX_CAMERA_HZ:g} Hz, got {self.rate_hz!r}")
         if not 0.0 <= self.drop_prob < 1.0:
             raise ValueError(f"drop_prob must be in [0, 1), got {self.drop_prob!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer) or self.seed < 0:
@@ -54,7 +59,7 @@ class SensorSettings:
 
     @staticmethod
     def realistic(seed: int = 0) -> SensorSettings:
-        """A camera as in docs/conventions.md#plants / issue 6: 15 Hz, 1 mm and 0.5° noise, 60 ms latency, 5 % drops."""
+        """A camera as in docs/conventions.md#plants: 15 Hz, 1 mm and 0.5° noise, 60 ms latency, 5 % drops."""
         return SensorSettings(1e-3, float(np.radians(0.5)), 0.0, 15.0, 0.06, 0.05, seed)
 
     @staticmethod
@@ -118,7 +123,7 @@ class Camera:
         self._next_capture = 1.0 / s.rate_hz if s.rate_hz else np.inf
         return Frame(obs.object_pose + noise[:3], obs.pusher_xy + noise[3:], 0.0)
 
-    def step(self, velocity: object, dt: float = 0.04) -> Frame | None:
+    def step(self, velocity: object, dt: float = CONTROL_PERIOD_S) -> Frame | None:
         """Advance the plant by ``dt`` under ``velocity``; the newest frame that arrived, or None."""
         v = checked_vector("velocity", velocity, 2)
         dt = check_positive("dt", dt, "s")

@@ -1,0 +1,273 @@
+"""What each dexpush command does (run/demo, bench, validate-mit, fit): a function
+of its parsed arguments that writes its files and returns the one-line JSON summary."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+from dexpush.cli.flags import camera_overrides, planner_overrides
+from dexpush.cli.settings_file import merge
+from dexpush.common.interfaces import CONTROL_PERIOD_S
+from dexpush.experiments.methods import get_method, method_names
+from dexpush.experiments.records import CONDITION_KEYS
+from dexpush.experiments.registry import PARAMS, SHAPES
+
+__all__ = ["cmd_bench", "cmd_fit", "cmd_run", "cmd_validate", "effective_config"]
+
+
+def _episode_files(episode, shape, out: Path, animation: bool, control_period: float = CONTROL_PERIOD_S,
+                   truth: object | None = None) -> dict[str, str]:
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from dexpush.common.files import atomic_path, write_json_atomic
+    from dexpush.viz import animate_episode, plot_episode, plot_params
+
+    rec = episode.record
+    task = "custom goal" if rec.task == "custom" else f"Task {rec.task}"
+    title = (f"{task} · {rec.shape} · {rec.method} ({rec.params} λ) · {rec.plant} plant · camera: {rec.sensor} · "
+             f"seed {rec.seed}\n{'success' if rec.success else 'failure'} in {rec.steps} steps ({rec.time_s:g} s)")
+    files = {"trajectory": str(out / "trajectory.png"), "summary": str(out / "summary.json")}
+    fig = plot_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles, title=title,
+                       path=files["trajectory"])
+    plt.close(fig)
+    if get_method(rec.method).estimates:
+        files["params"] = str(out / "params.png")
+        plt.close(plot_params(episode.params, truth, files["params"], dt=control_period, title=title))
+    if animation:
+        duration = len(episode.states) * control_period
+        speedup = max(1, math.ceil(duration / 30.0))      # long episodes play faster (the caption says so)
+        files["animation"] = animate_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles,
+                                             out / "animation.mp4", control_period=control_period,
+                                             speedup=speedup, title=title)
+    files["trajectory_data"] = str(out / "trajectory.npz")
+    with atomic_path(files["trajectory_data"]) as tmp, open(tmp, "wb") as fh:
+        np.savez_compressed(fh, states=episode.states, modes=episode.modes, commands=episode.commands,
+                            planning_ms=episode.planning_ms, params=episode.params, goal=episode.goal,
+                            obstacles=episode.obstacles)
+    write_json_atomic(files["summary"], episode.summary())
+    return files
+
+
+#: ``dexpush run`` flags that override the config's [run] table (None: not given)
+#: ``dexpush run`` flags that override the config's [run] table (None: not given)
+_RUN_KEYS = ("task", "shape", "goal", "params", "lambda_pred", "method", "seed", "plant", "true_params", "mu",
+             "max_steps")
+
+
+def effective_config(args: argparse.Namespace, run_flags: bool = True):
+    """The effective :class:`dexpush.cli.config.RunConfig`: the defaults, then ``--config``, then the
+    flags (``run``'s what-and-where flags with ``run_flags``, the planner and camera flags always)."""
+    from dexpush.cli.config import default_config, load_config
+
+    over: dict = {}
+    if run_flags:
+        over["run"] = {k: getattr(args, k) for k in _RUN_KEYS if getattr(args, k, None) is not None}
+        if getattr(args, "obstacle", None) is not None:
+            over["run"]["obstacles"] = args.obstacle
+    planner, args.planner_text = planner_overrides(args)
+    camera, args.camera_text = camera_overrides(args)
+    over = merge(merge(over, planner), camera)
+    return load_config(args.config, over) if getattr(args, "config", None) else default_config(over)
+
+
+def cmd_run(args: argparse.Namespace) -> dict:
+    from dexpush.cli.config import build_plant, build_task, lambda_pred, load_shape, to_toml
+    from dexpush.experiments.runner import run_episode
+    from dexpush.model.cgvmm import LAMBDA_TRUE
+
+    config = effective_config(args)
+    if getattr(args, "print_config", False):
+        if config.run.shape.endswith(".toml"):    # the printed file names the shape file from wherever it is saved
+            config = config.replace(run={"shape": str(Path(config.run.shape).resolve())})
+        sys.stdout.write(to_toml(config))
+        return {}
+    run = config.run
+    shape = load_shape(run.shape)
+    if shape.origin != (0.0, 0.0) and not args.quiet:
+        print(f"dexpush: {shape.name}: reference point (the pose the goal refers to) at "
+              f"({shape.origin[0]:.4f}, {shape.origin[1]:.4f}) m in the shape file's frame", file=sys.stderr)
+    task = build_task(run)
+    sensor = config.sensor if config.sensor != type(config.sensor)() else None
+    params = run.params if run.lambda_pred is None else lambda_pred(run)
+    settings = config.controller
+    episode = run_episode(task, shape, params=params, method=run.method, seed=run.seed,
+                          max_steps=run.max_steps, settings=settings, progress=not args.quiet, lanes=args.lanes,
+                          plant=build_plant(config, shape), sensor=sensor)
+    out = Path(args.out)
+    files = _episode_files(episode, shape, out, animation=not args.no_animation,
+                           control_period=settings.mppi.control_period,
+                           truth=(run.true_params or LAMBDA_TRUE) if run.plant == "model" else None)
+    summary = episode.summary()
+    summary["files"] = files
+    return summary
+
+
+def cmd_validate(args: argparse.Namespace) -> dict:
+    import matplotlib.pyplot as plt
+
+    from dexpush.common.files import write_json_atomic
+    from dexpush.data.mit import load_folder
+    from dexpush.data.validation import validate
+    from dexpush.viz import plot_confusion, plot_mode_decisions
+
+    if args.estimate_mu and not args.online:
+        raise ValueError("--estimate-mu is an option of --online (the UKF's μ_c); add --online")
+    pushes = load_folder(args.data_dir)
+    result = validate(pushes, mu=args.mu)
+    out = Path(args.out)
+    files = {"mode_decisions": str(out / "mode_decisions.png"), "confusion": str(out / "confusion.png"),
+             "summary": str(out / "validation.json")}
+    plt.close(plot_mode_decisions(result.per_object, args.mu, files["mode_decisions"]))
+    plt.close(plot_confusion(result.per_object, files["confusion"]))
+    write_json_atomic(files["summary"], result.summary)
+    if not args.quiet:
+        for name, e in result.summary["objects"].items():
+            print(f"{name}: {e['pushes']} pushes, {e['samples']} samples, β = {e['beta_fit']:.1f}, "
+                  f"mode agreement {e['mode_agreement']:.1%}, one-step {e['one_step_error_mm']:.2f} mm / "
+                  f"{e['one_step_error_deg']:.2f}°, whole push {e['whole_push_error_mm']:.2f} mm / "
+                  f"{e['whole_push_error_deg']:.2f}°", file=sys.stderr)
+    summary = {k: v for k, v in result.summary.items() if k != "objects"}
+    summary["beta_fit"] = {k: e["beta_fit"] for k, e in result.summary["objects"].items()}
+    summary["lambda_fit"] = {k: e.get("lambda_fit") for k, e in result.summary["objects"].items()}
+    if args.online:
+        summary["online"] = _validate_online(pushes, args, out, files)
+    summary["files"] = files
+    return summary
+
+
+def _validate_online(pushes: list, args: argparse.Namespace, out: Path, files: dict) -> dict:
+    """``validate-mit --online``: dexpush.data.online per object, written to online.json and lambda.png."""
+    import matplotlib.pyplot as plt
+
+    from dexpush.common.files import write_json_atomic
+    from dexpush.control.estimator import UKFSettings
+    from dexpush.data.mit import OBJECTS
+    from dexpush.data.online import online_session
+    from dexpush.experiments.registry import PARAMS
+    from dexpush.viz import plot_online_lambda
+
+    per_object, traces = {}, {}
+    settings = UKFSettings(estimate_mu=args.estimate_mu)
+    for name in sorted({p.shape for p in pushes}):
+        per_object[name], traces[name] = online_session([p for p in pushes if p.shape == name], OBJECTS[name](),
+                                                        prior=PARAMS["unknown"], mu=args.mu, settings=settings)
+        if not args.quiet:
+            e = per_object[name]
+            mu_text = f", μ_c {args.mu:g} → {e['mu_c_final']:.3f}" if args.estimate_mu else ""
+            print(f"{name} online: β {e['prior'][0]:g} → {e['lambda_final'][0]:.1f}{mu_text} (settled after push "
+                  f"{e['settled_after_push']} of {e['pushes']}), whole push {e['whole_push_error_mm_online']:.2f} mm / "
+                  f"{e['whole_push_error_deg_online']:.2f}° (prior {e['whole_push_error_mm_prior']:.2f} mm / "
+                  f"{e['whole_push_error_deg_prior']:.2f}°), NMSE {e['nmse_online']:.2f} (prior {e['nmse_prior']:.2f})",
+                  file=sys.stderr)
+    files["online"], files["lambda"] = str(out / "online.json"), str(out / "lambda.png")
+    write_json_atomic(files["online"], per_object)
+    plt.close(plot_online_lambda(traces, files["lambda"]))
+    return {name: {k: e[k] for k in ("lambda_final", "settled_after_push", "whole_push_error_deg_online",
+                                     "whole_push_error_deg_prior", "nmse_online", "nmse_prior")}
+            for name, e in per_object.items()}
+
+
+def cmd_fit(args: argparse.Namespace) -> dict:
+    import matplotlib.pyplot as plt
+
+    from dexpush.cli.config import load_shape
+    from dexpush.common.files import write_json_atomic
+    from dexpush.data.fitting import fit_pushes
+    from dexpush.data.logs import read_log
+    from dexpush.data.mit import OBJECTS
+    from dexpush.viz import plot_fit
+
+    pushes = read_log(args.log)
+    if args.shape is not None:
+        shape = load_shape(args.shape)
+    else:
+        kinds = {p.shape for p in pushes}
+        if len(kinds) > 1 and kinds <= set(OBJECTS):
+            raise ValueError(f"the log holds pushes of several objects ({', '.join(sorted(kinds))}); fit one object "
+                             "at a time (a folder with only its files)")
+        if len(kinds) != 1 or next(iter(kinds)) not in OBJECTS:
+            raise ValueError("--shape is needed: the object's footprint (rect, tee, ellipse or a shape file), "
+                             "with the logged pose being its reference point")
+        shape = OBJECTS[next(iter(kinds))]()
+    result = fit_pushes(pushes, shape, mu=args.mu, fit_mu=args.fit_mu)
+    summary = {"log": str(args.log), "shape": shape.name, **result.summary()}
+    out = Path(args.out)
+    files = {"fit": str(out / "fit.json"), "figure": str(out / "fit.png")}
+    plt.close(plot_fit(shape, [p.states for p in pushes], result.replays, summary, files["figure"]))
+    lam = summary["lambda"]
+    summary["use"] = (f"dexpush run --lambda-pred {lam[0]:g},{lam[1]:g},{lam[2]:g}"
+                      + (f" (and [controller] mu = {summary['mu_c']:g} in a --config file)" if args.fit_mu else ""))
+    write_json_atomic(files["fit"], summary)
+    if not args.quiet:
+        std = [v if v is not None else float("inf") for v in summary["lambda_std"]]
+        mu = f"μ_c = {args.mu:g} (given)"
+        if args.fit_mu:
+            mu = (f"μ_c = {summary['mu_c']:.3f} ± {summary['mu_c_std']:.3f}" if summary["mu_c_std"] is not None
+                  else f"μ_c = {summary['mu_c']:.3f}, not identifiable: no sample slides along the contour")
+        print(f"{summary['pushes']} pushes, {summary['samples']} samples at 25 Hz\n"
+              f"β    = {lam[0]:8.2f} ± {std[0]:.2f} 1/m\nx_bf = {lam[1] * 1e3:8.2f} ± {std[1] * 1e3:.2f} mm\n"
+              f"y_bf = {lam[2] * 1e3:8.2f} ± {std[2] * 1e3:.2f} mm\n{mu}\n"
+              f"one-step error {summary['one_step_error_mm']:.2f} mm / {summary['one_step_error_deg']:.2f}°, "
+              f"whole push {summary['whole_push_error_mm']:.1f} mm / {summary['whole_push_error_deg']:.1f}°\n"
+              f"use it: {summary['use']}", file=sys.stderr)
+    summary["files"] = files
+    return summary
+
+
+def cmd_bench(args: argparse.Namespace) -> dict:
+    import datetime
+    import platform
+
+    from dexpush.cli.config import check_bench_config, to_toml
+    from dexpush.experiments.benchmark import run_benchmark
+    from dexpush.experiments.results_folder import folder_records
+    from dexpush.experiments.scenarios import get_task
+    from dexpush.experiments.tables import write_tables
+
+    tasks = [get_task(t).key for t in args.tasks.split(",")]
+    shapes, params, methods = (args.shapes.split(","), args.params.split(","), args.methods.split(","))
+    choices = (("shape", shapes, SHAPES), ("params", params, tuple(PARAMS)), ("method", methods, method_names()))
+    for name, values, allowed in choices:
+        bad = [v for v in values if v not in allowed]
+        if bad:
+            raise ValueError(f"unknown {name} {bad[0]!r}; choose from {', '.join(allowed)}")
+    seeds = args.seeds if args.seeds is not None else list(range(args.trials))
+    if args.randomize:
+        if args.plant not in ("physics", "physics-random"):
+            raise ValueError("--randomize randomises the physics plant's world: use it with --plant physics")
+        args.plant = "physics-random"
+    config = effective_config(args, run_flags=False)
+    if getattr(args, "print_config", False):
+        sys.stdout.write(to_toml(config, tables=("controller", "sensor")))
+        return {}
+    check_bench_config(config, args)
+    t0 = time.perf_counter()
+    records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
+                            lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures,
+                            workers=args.workers, plant=args.plant, sensor=config.sensor, settings=config.controller)
+    wall = time.perf_counter() - t0
+    seed_text = f"--seeds {args.seeds_text}" if args.seeds is not None else f"--trials {args.trials}"
+    meta = {"command": f"dexpush bench --tasks {args.tasks} --shapes {args.shapes} --params {args.params} "
+                       f"--methods {args.methods} {seed_text} --lanes {args.lanes} --plant {args.plant}"
+                       f"{args.camera_text}{args.planner_text}"
+                       f"{f' --config {args.config}' if args.config else ''} --workers {args.workers} --out {args.out}",
+            "date": datetime.date.today().isoformat(),
+            "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.python_implementation()} "
+                       f"{platform.python_version()}",
+            "wall_s_this_invocation": round(wall, 1)}
+    everything = folder_records(args.out)      # the tables cover every trial in the folder, not only this run's
+    if len(everything) > len(records):
+        meta["note"] = (f"{len(everything) - len(records)} of the {len(everything)} trials were recorded by earlier "
+                        f"runs into {args.out} with the same settings (settings.json)")
+    files = write_tables(args.out, everything, meta)
+    ok = sum(r["success"] for r in records)
+    n_cond = len({tuple(r[k] for k in CONDITION_KEYS) for r in records})
+    return {"conditions": n_cond, "trials": len(records), "successes": ok,
+            "success_rate": round(ok / len(records), 4) if records else None, "wall_s": round(wall, 1),
+            "files": files}

@@ -1,0 +1,146 @@
+"""The command line's setting flags, shared by ``dexpush run`` and ``dexpush bench``: each flag is an
+override of one key of the configuration (:mod:`dexpush.cli.config`), on top of the defaults and a
+``--config`` file, so the command line and the file are one way to say the same settings.
+
+* planner flags (:func:`add_planner_flags`): one field each of ``ControllerSettings`` (or of its
+  ``weights``, ``mppi``, ``stall``, ``endgame``, ``proposals``, ``prediction_margin``);
+* camera flags (:func:`add_camera_flags`): ``--camera realistic`` starts from the realistic camera,
+  the others set one key each of ``[sensor]`` on top of the file's, ``--camera exact`` with any
+  of them is refused.
+
+:func:`planner_overrides` and :func:`camera_overrides` give the overrides and the flags as text for
+a results folder's command line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Any
+
+from dexpush.cli.arguments import at_least_one, nonnegative_float, positive_float, positive_int, positive_or_off
+from dexpush.cli.settings_file import merge, to_dict
+from dexpush.world.sensing import MAX_CAMERA_HZ, SensorSettings
+
+__all__ = ["add_camera_flags", "add_planner_flags", "camera_overrides", "planner_overrides"]
+
+#: planner flag → (its argparse dest, the controller key it sets)
+_PLANNER = {
+    "--detour": ("detour", ("weights", "detour")),
+    "--stall-after": ("stall_after", ("stall", "after_s")),
+    "--temperature": ("temperature", ("mppi", "temperature")),
+    "--endgame-temperature": ("endgame_temperature", ("endgame", "temperature")),
+    "--margin-cost": ("margin_cost", ("weights", "C_margin")),
+    "--obstacle-margin": ("obstacle_margin", ("weights", "obstacle_margin_m")),
+    "--contact-proposals": ("contact_proposals", ("proposals", "count")),
+    "--mppi-update": ("mppi_update", ("mppi", "update")),
+    "--prediction-margin": ("prediction_margin", ("prediction_margin", "gain")),
+    "--stall-horizon": ("stall_horizon", ("stall", "horizon_scale")),
+    "--samples": ("samples", ("mppi", "num_samples")),
+}
+
+
+def add_planner_flags(parser: argparse.ArgumentParser) -> None:
+    """The planner flags, each defaulting to None (not given: the configuration's value)."""
+    g = parser.add_argument_group("planner (each flag sets one key of [controller]; flags override --config)")
+    g.add_argument("--detour", action=argparse.BooleanOptionalAction, default=None,
+                   help="measure the goal distance round the obstacles (default), or straight through them "
+                        "as eq. (9) is written (--no-detour; weights.detour; "
+                        "docs/controller.md#going-round-obstacles-detour)")
+    g.add_argument("--stall-after", type=positive_or_off("a time in seconds"), default=None, metavar="SECONDS|off",
+                   help="restart the planner after this long without progress and contact, or never (off) "
+                        "(stall.after_s; docs/controller.md#stalls; default: 4)")
+    g.add_argument("--stall-horizon", type=at_least_one, default=None, metavar="SCALE",
+                   help="after a stall the planner looks SCALE times further ahead until the next progress "
+                        "(stall.horizon_scale; docs/controller.md#stalls; default: 2)")
+    g.add_argument("--temperature", type=positive_float, default=None, metavar="TAU",
+                   help="MPPI's relative temperature τ: λ = τ·(median − min of the sampled costs) "
+                        "(mppi.temperature; docs/controller.md; default: 0.02)")
+    g.add_argument("--endgame-temperature", type=positive_or_off("a temperature"), default=None,
+                   metavar="TAU|off", help="τ within 4 cm of the goal, or the same τ everywhere (off) "
+                   "(endgame.temperature; docs/controller.md#the-endgame-temperature; default: 0.005)")
+    g.add_argument("--obstacle-margin", type=positive_float, default=None, metavar="M",
+                   help="the planner keeps object and pusher this far (m) from obstacles (weights."
+                        "obstacle_margin_m; docs/controller.md#the-margin; default: 0.01)")
+    g.add_argument("--margin-cost", type=positive_or_off("a cost"), default=None, metavar="C|off",
+                   help="inside the obstacle margin a state costs C times its depth into it, or the collision "
+                        "penalty (off) (weights.C_margin; docs/controller.md#the-margin; default: 1e9)")
+    g.add_argument("--contact-proposals", type=int, default=None, metavar="J",
+                   help="J of MPPI's exploring samples walk round the object to J contact points and push "
+                        "(proposals.count; docs/controller.md#contact-proposals; default: 0, none)")
+    g.add_argument("--mppi-update", choices=("sampled", "clipped"), default=None,
+                   help="MPPI's update: average the sampled inputs and clip the average (sampled), or "
+                        "average the clipped samples (clipped) (mppi.update; docs/controller.md#the-update; "
+                        "default: sampled)")
+    g.add_argument("--samples", type=positive_int, default=None, metavar="K",
+                   help="MPPI's sampled input sequences per iteration (mppi.num_samples; "
+                        "docs/performance.md#samples-against-success-a-pareto-table; default: 1024)")
+    g.add_argument("--prediction-margin", type=nonnegative_float, default=None, metavar="GAIN",
+                   help="the obstacle margin grows by GAIN times how far the object was predicted on from "
+                        "the newest camera frame, up to 2 cm more; 0 keeps it fixed (prediction_margin.gain; "
+                        "docs/controller.md#the-margin-grows-with-the-prediction; default: 0.5)")
+
+
+def _text(flag: str, value: Any) -> str:
+    if flag == "--detour":
+        return " --detour" if value else " --no-detour"
+    return f" {flag} {value if isinstance(value, str) else f'{value:g}'}"
+
+
+def planner_overrides(args: argparse.Namespace) -> tuple[dict, str]:
+    """The ``[controller]`` overrides the planner flags in ``args`` make, and the flags as text
+    (`` --no-detour --stall-after off`` …) for a results folder's command line."""
+    over: dict[str, Any] = {}
+    text = ""
+    for flag, (dest, (group, key)) in _PLANNER.items():
+        value = getattr(args, dest, None)
+        if value is None:
+            continue
+        over = merge(over, {group: {key: value}})
+        text += _text(flag, value)
+    return ({"controller": over} if over else {}), text
+
+
+#: camera flag → (its argparse dest, the [sensor] key it sets, the factor from the flag's unit to the key's)
+_CAMERA = {
+    "--noise-mm": ("noise_mm", "pos_std_m", 1e-3),
+    "--noise-deg": ("noise_deg", "heading_std_rad", math.pi / 180),
+    "--camera-hz": ("camera_hz", "rate_hz", 1.0),
+    "--latency-ms": ("latency_ms", "latency_s", 1e-3),
+    "--drop": ("drop", "drop_prob", 1.0),
+}
+
+
+def add_camera_flags(parser: argparse.ArgumentParser) -> None:
+    """The camera flags, each defaulting to None (not given: the configuration's [sensor] value)."""
+    g = parser.add_argument_group("sensing (what the controller sees; each flag sets one key of [sensor]; "
+                                  "default: the exact state every step)")
+    g.add_argument("--camera", choices=["exact", "realistic"], default=None,
+                   help="exact (default): the true state every step; realistic: 15 Hz, 1 mm / 0.5° noise, "
+                        "60 ms latency, 5%% dropped frames (the other camera flags then change one of these)")
+    g.add_argument("--noise-mm", type=nonnegative_float, default=None, help="object position noise σ (mm)")
+    g.add_argument("--noise-deg", type=nonnegative_float, default=None, help="object heading noise σ (deg)")
+    g.add_argument("--camera-hz", type=positive_float, default=None,
+                   help=f"camera rate, up to {MAX_CAMERA_HZ:g} Hz (default: one frame per control step)")
+    g.add_argument("--latency-ms", type=nonnegative_float, default=None, help="capture-to-controller delay (ms)")
+    g.add_argument("--drop", type=nonnegative_float, default=None, help="probability of a lost frame, in [0, 1)")
+
+
+def camera_overrides(args: argparse.Namespace) -> tuple[dict, str]:
+    """The ``[sensor]`` overrides the camera flags in ``args`` make, and the flags as text."""
+    given = {flag: getattr(args, dest, None) for flag, (dest, _, _) in _CAMERA.items()}
+    given = {k: v for k, v in given.items() if v is not None}
+    camera = getattr(args, "camera", None)
+    if camera == "exact" and given:
+        raise ValueError(f"--camera exact is the true state every step; it contradicts {', '.join(given)}")
+    over: dict[str, Any] = {}
+    text = ""
+    if camera is not None:
+        over = to_dict(SensorSettings.realistic() if camera == "realistic" else SensorSettings())
+        over.pop("seed")
+        text = f" --camera {camera}"
+    for flag, value in given.items():
+        _, key, unit = _CAMERA[flag]
+        over[key] = value * unit
+        text += _text(flag, value)
+    return ({"sensor": over} if over else {}), text
