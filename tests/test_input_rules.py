@@ -221,3 +221,213 @@ def test_a_printed_config_names_its_shape_file_from_anywhere(tmp_path, monkeypat
     (tmp_path / "sub").mkdir()
     (tmp_path / "sub" / "c.toml").write_text(capsys.readouterr().out)
     assert Path(load_config(tmp_path / "sub" / "c.toml").run.shape).exists()
+
+
+# ---------------------------------------------------------------------------- the loop: act(), plants, the env
+def _controller():
+    from dexpush import PushingController
+
+    return PushingController(Shape.rectangle(), (0.3, 0.0, 0.0), params=(25.0, -0.01, 0.02))
+
+
+def test_act_takes_an_observation_or_none(capsys) -> None:
+    ctrl = _controller()
+    for bad in ({"object_pose": (0, 0, 0)}, ((0, 0, 0), (-0.12, 0), 0.0)):
+        with pytest.raises(ValueError, match="frame must be an Observation"):
+            ctrl.act(bad)
+
+
+def test_act_sets_aside_frames_whose_time_goes_back_stands_still_or_runs_ahead() -> None:
+    import numpy as np
+
+    from dexpush import Observation
+
+    ctrl = _controller()
+    pose, pusher = np.zeros(3), np.array([-0.12, 0.0])
+    with pytest.raises(ValueError, match="ahead of the controller's clock"):
+        ctrl.act(Observation(pose, pusher, 3600.0))          # a first frame on another clock
+    ctrl.act(Observation(pose, pusher, 0.0))
+    for _ in range(3):
+        ctrl.act(None)
+    with pytest.warns(RuntimeWarning, match="set aside"):
+        ctrl.act(Observation(pose, pusher, 0.0))               # stuck: the same capture time again
+    ctrl.act(Observation(pose, pusher, -0.5))                  # backwards
+    ctrl.act(Observation(pose, pusher, 1000.0))                # milliseconds, or another clock
+    assert ctrl.rejected_frame_times == 3
+    ctrl.act(Observation(pose, pusher, 0.1))                   # a late but usable frame
+    assert ctrl.rejected_frame_times == 3
+
+
+def test_a_frame_older_than_the_commands_kept_is_warned_about() -> None:
+    import numpy as np
+
+    from dexpush import Observation
+    from dexpush.control.controller import HISTORY
+
+    ctrl = _controller()
+    pose, pusher = np.zeros(3), np.array([-0.12, 0.0])
+    ctrl.act(Observation(pose, pusher, 0.0))
+    for _ in range(HISTORY + 10):
+        ctrl.act(None)
+    with pytest.warns(RuntimeWarning, match="beyond the"):
+        ctrl.act(Observation(pose, pusher, 0.04))
+
+
+class _OddPlant:
+    """A user's plant whose observation or state is malformed."""
+
+    def __init__(self, kind: str) -> None:
+        from dexpush.world.model_plant import ModelPlant
+
+        self.inner, self.kind = ModelPlant(Shape.rectangle()), kind
+
+    def reset(self, object_pose, pusher_xy):
+        self.inner.reset(object_pose, pusher_xy)
+        return self.observe()
+
+    def step(self, velocity, dt):
+        self.inner.step(velocity, dt)
+        return self.observe()
+
+    def observe(self):
+        import numpy as np
+
+        from dexpush import Observation
+
+        obs = self.inner.observe()
+        if self.kind == "2-number pose":
+            return Observation(obs.object_pose[:2], obs.pusher_xy, obs.time)
+        if self.kind == "tuple":
+            return (obs.object_pose, obs.pusher_xy, obs.time)
+        if self.kind == "nan":
+            return Observation(np.full(3, np.nan), obs.pusher_xy, obs.time)
+        return obs
+
+    @property
+    def state(self):
+        return self.inner.state[:3] if self.kind == "3-number state" else self.inner.state
+
+
+@pytest.mark.parametrize("kind, says", [("2-number pose", r"object_pose must have shape \(3,\)"),
+                                        ("tuple", "must return an Observation"), ("nan", "NaN"),
+                                        ("3-number state", r"state must have shape \(5,\)")])
+def test_a_users_plant_with_a_malformed_observation_is_named(kind, says) -> None:
+    from dexpush import run_loop
+    from dexpush.experiments.scenarios import get_task
+
+    problem = get_task("I").problem(Shape.rectangle())
+    with pytest.raises(ValueError, match=says):
+        run_loop(_OddPlant(kind), _controller(), problem, (0.0, 0.0, 0.0), (-0.12, 0.0), max_steps=3)
+    from dexpush.env import PushEnv
+
+    with pytest.raises(ValueError, match=says):
+        env = PushEnv(plant=_OddPlant(kind))
+        env.reset(seed=0)
+        env.step((0.01, 0.0))
+
+
+def test_the_env_refuses_goals_it_cannot_show_and_takes_one_per_episode() -> None:
+    import numpy as np
+
+    from dexpush.env import PushEnv, VectorPushEnv
+
+    with pytest.raises(ValueError, match="goal_range must be finite"):
+        PushEnv(goal="random", goal_range=((-np.inf, 0.5), (-0.5, 0.5)))
+    with pytest.raises(ValueError, match=r"within ±10 m"):
+        PushEnv(goal=(50.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match=r"within ±10 m"):
+        VectorPushEnv(num_envs=2, goal=(0.0, 50.0, 0.0))
+    with pytest.raises(ValueError, match=r"mppi must be a dexpush\.MPPISettings"):
+        PushEnv(mppi="fast")
+    env = PushEnv()
+    obs, _ = env.reset(seed=0, options={"goal": (0.2, -0.1, 0.5)})
+    np.testing.assert_allclose(obs[5:], [0.2, -0.1, 0.5], atol=1e-6)
+    assert env.problem.goal == (0.2, -0.1, 0.5)
+    with pytest.raises(ValueError, match="unknown reset option"):
+        env.reset(options={"gaol": (0, 0, 0)})
+
+
+def test_a_control_period_that_lets_the_pusher_tunnel_is_refused_by_the_batched_simulator() -> None:
+    from dexpush import ControllerSettings, MPPISettings
+    from dexpush.experiments.runner import run_episode
+
+    with pytest.raises(ValueError, match="pass through the object"):
+        run_episode("I", "rect", settings=ControllerSettings(mppi=MPPISettings(control_period=10.0)), max_steps=2)
+
+
+@pytest.mark.parametrize("bad, says", [(dict(num_samples=1), "num_samples"), (dict(num_samples=10**7), "num_samples"),
+                                       (dict(growth=float("nan")), "growth"), (dict(growth=1000.0), "horizon spans"),
+                                       (dict(horizon=2.5), "horizon"), (dict(explore_knots=True), "explore_knots")])
+def test_mppi_settings_that_give_no_plan_are_refused(bad, says) -> None:
+    from dexpush import MPPISettings
+
+    with pytest.raises(ValueError, match=says):
+        MPPISettings(**bad)
+
+
+def test_a_centre_of_friction_outside_the_footprint_is_refused(capsys) -> None:
+    from dexpush.world.model_plant import ModelPlant
+
+    with pytest.raises(ValueError, match="outside the footprint"):
+        ModelPlant(Shape.rectangle(), params=(25.0, 0.5, 0.0))
+    assert "outside the footprint" in _error(capsys, _run_args("--true-params", "25,0.5,0"))
+
+
+# ---------------------------------------------------------------------------- dexpush fit
+def _log(path: Path, rows: list[list[float]], header: str = "t,x,y,theta,px,py") -> Path:
+    path.write_text(header + "\n" + "\n".join(",".join(repr(float(v)) for v in r) for r in rows) + "\n")
+    return path
+
+
+def _push_rows(t0: float = 0.0, scale_t: float = 1.0, origin: float = 0.0, degrees: bool = False):
+    """A box pushed straight by a pusher behind it (2 cm/s for 2 s), as a log's rows."""
+    import numpy as np
+
+    from dexpush.world.model_plant import ModelPlant
+
+    plant = ModelPlant(Shape.rectangle())
+    plant.reset((0.0, 0.0, 0.0), (-0.11, 0.01))
+    rows = []
+    for k in range(100):
+        x = plant.state
+        theta = np.degrees(x[2]) if degrees else x[2]
+        rows.append([t0 + k * 0.02 * scale_t, x[0] + origin, x[1] + origin, theta, x[3] + origin, x[4] + origin])
+        plant.step((0.02, 0.002 * np.sin(k / 7)), 0.02)
+    return rows
+
+
+def test_fit_refuses_times_in_other_units_and_a_wrong_npz(tmp_path, capsys) -> None:
+    import numpy as np
+
+    ns = _log(tmp_path / "ns.csv", _push_rows(scale_t=1e9))
+    assert "are the times in milliseconds or nanoseconds" in _error(capsys, ["fit", str(ns), "--shape", "rect",
+                                                                             "--out", str(tmp_path / "o")])
+    npy = tmp_path / "a.npz"
+    with open(npy, "wb") as fh:
+        np.save(fh, np.zeros((10, 6)))
+    assert "not an .npz archive" in _error(capsys, ["fit", str(npy), "--shape", "rect", "--out", str(tmp_path / "o")])
+    for mu in ("0", "-0.25", "nan", "inf"):
+        with pytest.raises(SystemExit):
+            from dexpush.cli import main
+
+            main(["fit", str(ns), "--mu", mu])
+        assert "--mu" in capsys.readouterr().err
+
+
+def test_fit_is_the_same_far_from_the_origin_and_says_when_it_explains_little(tmp_path, capsys) -> None:
+    import json
+
+    from dexpush.cli import main
+
+    fits = {}
+    for name, origin in (("near", 0.0), ("far", 1000.0)):
+        log = _log(tmp_path / f"{name}.csv", _push_rows(origin=origin))
+        assert main(["fit", str(log), "--shape", "rect", "--quiet", "--out", str(tmp_path / name)]) == 0
+        fits[name] = json.loads((tmp_path / name / "fit.json").read_text())
+        capsys.readouterr()
+    assert fits["far"]["lambda"] == pytest.approx(fits["near"]["lambda"], rel=1e-3, abs=1e-4)
+    assert fits["near"]["explains_motion"]
+    swapped = _log(tmp_path / "swapped.csv", _push_rows(), header="t,y,x,theta,px,py")
+    code = main(["fit", str(swapped), "--shape", "tee", "--quiet", "--out", str(tmp_path / "s")])
+    err = capsys.readouterr().err
+    assert code == 2 or "explains little" in err

@@ -89,7 +89,9 @@ def test_planning_state_is_the_frame_predicted_to_the_present() -> None:
     u0 = ctrl.act(Observation(pose, pusher, 0.0))                      # fresh: the frame itself
     np.testing.assert_allclose(ctrl.planning_state, np.r_[pose, pusher], atol=1e-6)
     assert ctrl.prediction_shift_m == 0.0
-    ctrl.act(Observation(pose, pusher, 0.0))                           # a period old: moved on by u0
+    with pytest.warns(RuntimeWarning, match="set aside"):              # the same frame again: not newer, so
+        ctrl.act(Observation(pose, pusher, 0.0))                       # set aside, and the state moved on by u0
+    assert ctrl.rejected_frame_times == 1
     np.testing.assert_allclose(ctrl.planning_state[3:], pusher + 0.04 * u0, atol=1e-6)
     assert np.linalg.norm(u0) > 0.01
     # the prediction's shift, which the obstacle margin grows with, is the footprint's from the frame

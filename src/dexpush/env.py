@@ -26,7 +26,8 @@
   ``control_period`` is how long each action is held.
 
 * ``goal``: ``None`` (the task's), a pose (x, y, θ), or ``"random"``: a new goal at each reset,
-  uniform in ``goal_range`` = ((x_lo, x_hi), (y_lo, y_hi)) (m) and θ ∈ [−π, π).
+  uniform in ``goal_range`` = ((x_lo, x_hi), (y_lo, y_hi)) (m) and θ ∈ [−π, π); or one episode's,
+  ``reset(options={"goal": (x, y, θ)})``. Goals lie within the observation's ±10 m.
 * ``success_position_m``, ``success_heading_deg``: the success gate (default 8 mm and 3°).
 
 Each reset draws a start from the task's distribution (docs/conventions.md#benchmark-tasks)
@@ -81,15 +82,34 @@ class _Goals:
         if isinstance(goal, str) and goal != "random":
             raise ValueError(f"goal must be None, 'random' or a pose (x, y, θ), got {goal!r}")
         self.random = goal == "random"
-        self.fixed = np.asarray(task.goal if goal is None or self.random else goal, np.float64)
-        if self.fixed.shape != (3,) or not np.all(np.isfinite(self.fixed)):
-            raise ValueError(f"goal must be a finite pose (x, y, θ), got {goal!r}")
-        self.range = np.asarray(goal_range, np.float64)
-        if self.range.shape != (2, 2) or not np.all(self.range[:, 0] <= self.range[:, 1]):
-            raise ValueError(f"goal_range must be ((x_lo, x_hi), (y_lo, y_hi)), got {goal_range!r}")
+        self.fixed = self.checked(task.goal if goal is None or self.random else goal)
+        try:
+            self.range = np.asarray(goal_range, np.float64)
+        except (TypeError, ValueError):
+            self.range = np.zeros(0)
+        if self.range.shape != (2, 2) or not np.all(np.isfinite(self.range)) \
+                or not np.all(self.range[:, 0] <= self.range[:, 1]):
+            raise ValueError(f"goal_range must be finite ((x_lo, x_hi), (y_lo, y_hi)), got {goal_range!r}")
+        if np.any(np.abs(self.range) > _OBS_LIMIT[5]):
+            raise ValueError(f"goal_range must lie within ±{_OBS_LIMIT[5]:g} m, the observation's bounds; got "
+                             f"{goal_range!r}")
         if not (position_m > 0 and heading_deg > 0):
             raise ValueError(f"the success gate must be positive, got {position_m!r} m and {heading_deg!r}°")
         self.position_m, self.heading_deg = float(position_m), float(heading_deg)
+
+    @staticmethod
+    def checked(goal: object) -> np.ndarray:
+        """A goal pose (x, y, θ): finite, and its position within the observation's ±10 m."""
+        try:
+            g = np.asarray(goal, np.float64)
+        except (TypeError, ValueError):
+            g = np.zeros(0)
+        if g.shape != (3,) or not np.all(np.isfinite(g)):
+            raise ValueError(f"goal must be a finite pose (x, y, θ), got {goal!r}")
+        if np.any(np.abs(g[:2]) > _OBS_LIMIT[5]):
+            raise ValueError(f"goal must lie within ±{_OBS_LIMIT[5]:g} m, the observation's bounds (it would be "
+                             f"seen clipped); got {goal!r}")
+        return g
 
     def draw(self, rng: np.random.Generator) -> np.ndarray:
         if not self.random:
@@ -125,6 +145,8 @@ class PushEnv(gym.Env):
         world = make_plant(plant, self.shape) if isinstance(plant, str) else check_plant(plant)
         self.camera = Camera(world, sensor or SensorSettings())
         self._c = CostWeights().c
+        if mppi is not None and not isinstance(mppi, MPPISettings):
+            raise ValueError(f"mppi must be a dexpush.MPPISettings, got {mppi!r}")
         mppi = mppi or MPPISettings()
         self.control_period = mppi.control_period
         v = mppi.v_clip
@@ -159,6 +181,11 @@ class PushEnv(gym.Env):
         trial = int(self.np_random.integers(0, 2**31 - 1))
         pose, pusher = initial_conditions(self.task, self.shape, trial)
         self._goal = self.goals.draw(self.np_random)
+        unknown = sorted(set(options or {}) - {"goal"})
+        if unknown:
+            raise ValueError(f"unknown reset option {unknown[0]!r}; the env takes options={{'goal': (x, y, θ)}}")
+        if (options or {}).get("goal") is not None:
+            self._goal = self.goals.checked(options["goal"])
         self._steps = 0
         obs = self._observation(self.camera.reset(pose, pusher))
         _, ok = self._reward_and_success()
@@ -231,6 +258,8 @@ class VectorPushEnv(gym.vector.VectorEnv):
             raise ValueError(f"shape must be a name or a dexpush.Shape, got {shape!r}")
         self.plant = ModelPlant(self.shape, mu=mu) if params is None else ModelPlant(self.shape, params, mu=mu)
         self.goals = _Goals(self.task, goal, goal_range, success_position_m, success_heading_deg)
+        if mppi is not None and not isinstance(mppi, MPPISettings):
+            raise ValueError(f"mppi must be a dexpush.MPPISettings, got {mppi!r}")
         mppi = mppi or MPPISettings()
         self.control_period = mppi.control_period
         self._c = CostWeights().c

@@ -211,9 +211,10 @@ def plot_fit(shape: Shape, recorded: list[np.ndarray], replayed: list[np.ndarray
         ax.set_title(f"push {k}", fontsize=8)
         if k == 0:
             ax.legend(fontsize=6, loc="best")
-    lam, std = summary["lambda"], summary["lambda_std"]
-    fig.suptitle(f"fitted λ = [{lam[0]:.1f} ± {std[0]:.1f}, {lam[1] * 1e3:.1f} ± {std[1] * 1e3:.1f} mm, "
-                 f"{lam[2] * 1e3:.1f} ± {std[2] * 1e3:.1f} mm], μ_c = {summary['mu_c']:.2f}: whole push "
+    lam = summary["lambda"]
+    std = [f"{s * k:.1f}" if s is not None else "?" for s, k in zip(summary["lambda_std"], (1, 1e3, 1e3))]
+    fig.suptitle(f"fitted λ = [{lam[0]:.1f} ± {std[0]}, {lam[1] * 1e3:.1f} ± {std[1]} mm, "
+                 f"{lam[2] * 1e3:.1f} ± {std[2]} mm], μ_c = {summary['mu_c']:.2f}: whole push "
                  f"{summary['whole_push_error_mm']:.1f} mm / {summary['whole_push_error_deg']:.1f}°", fontsize=9)
     fig.tight_layout()
     if path is not None:

@@ -178,7 +178,7 @@ def cmd_fit(args: argparse.Namespace) -> dict:
 
     from dexpush.cli.config import load_shape
     from dexpush.common.files import write_json_atomic
-    from dexpush.data.fitting import fit_pushes
+    from dexpush.data.fitting import MAX_FIT_SAMPLES, fit_pushes
     from dexpush.data.logs import read_log
     from dexpush.data.mit import OBJECTS
     from dexpush.viz import plot_fit
@@ -195,8 +195,16 @@ def cmd_fit(args: argparse.Namespace) -> dict:
             raise ValueError("--shape is needed: the object's footprint (rect, tee, ellipse or a shape file), "
                              "with the logged pose being its reference point")
         shape = OBJECTS[next(iter(kinds))]()
+    rows = sum(len(p.time) for p in pushes)
+    if rows > 50_000 and not args.quiet:
+        print(f"dexpush: fitting {len(pushes)} pushes ({rows} samples at 25 Hz; at most {MAX_FIT_SAMPLES} contact "
+              "samples are used, thinned evenly)", file=sys.stderr, flush=True)
     result = fit_pushes(pushes, shape, mu=args.mu, fit_mu=args.fit_mu)
-    summary = {"log": str(args.log), "shape": shape.name, **result.summary()}
+    summary = {"log": str(args.log), "shape": shape.name, **result.summary(), "explains_motion": result.explains}
+    if not result.explains:
+        print(f"dexpush: note: the fit's one-step error ({result.one_step_error_mm:.2f} mm) is as large as the "
+              f"object's motion per sample ({result.motion_mm:.2f} mm): λ explains little. Check the shape (--shape), "
+              "the columns (t, x, y, theta, px, py) and their units (s, m, rad)", file=sys.stderr)
     out = Path(args.out)
     files = {"fit": str(out / "fit.json"), "figure": str(out / "fit.png")}
     plt.close(plot_fit(shape, [p.states for p in pushes], result.replays, summary, files["figure"]))

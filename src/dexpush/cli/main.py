@@ -20,7 +20,7 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from dexpush.cli.arguments import floats, out_folder, positive_int, seed, seed_list
+from dexpush.cli.arguments import floats, out_folder, positive_float, positive_int, seed, seed_list
 from dexpush.cli.commands import cmd_bench, cmd_fit, cmd_run, cmd_validate
 from dexpush.cli.flags import add_camera_flags, add_planner_flags
 from dexpush.experiments.benchmark import BENCH_LANES
@@ -94,7 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "of the randomised family, with its own camera) (default model)")
     how.add_argument("--true-params", type=floats(3, "--true-params"), default=None, metavar="BETA,XBF,YBF",
                      help="the model plant's true λ (default 25,-0.01,0.02)")
-    how.add_argument("--mu", type=float, default=None, help=f"the model plant's true μ_c (default {MU_C:g})")
+    how.add_argument("--mu", type=positive_float, default=None, help=f"the model plant's true μ_c (default {MU_C:g})")
     how.add_argument("--lanes", type=positive_int, default=1,
                      help=f"batch lanes of the simulation (default 1); {BENCH_LANES} (the bench's) reproduces a "
                           "`dexpush bench` record exactly")
@@ -146,7 +146,8 @@ def build_parser() -> argparse.ArgumentParser:
     val.add_argument("data_dir", help="folder with the dataset's motion_*.h5 / motion_*.json files")
     val.add_argument("--out", type=out_folder, default="out/validate-mit",
                      help="output folder (default out/validate-mit)")
-    val.add_argument("--mu", type=float, default=0.25, help="pusher–object friction μ_c (default 0.25, as the paper)")
+    val.add_argument("--mu", type=positive_float, default=0.25,
+                     help="pusher–object friction μ_c (default 0.25, as the paper)")
     val.add_argument("--online", action="store_true",
                      help="also run the controller's UKF over each object's pushes in order: λ over time, "
                           "convergence, whole-push error and NMSE with the online estimate (online.json, lambda.png)")
@@ -162,7 +163,7 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("log", help="a .csv or .npz log, an MIT motion_*.h5/.json file, or a folder of them")
     fit.add_argument("--shape", default=None, metavar="NAME|FILE.toml",
                      help=f"the object: {', '.join(SHAPES)} or a shape file (MIT files: known from their names)")
-    fit.add_argument("--mu", type=float, default=0.25, help="pusher–object friction μ_c (the start value with "
+    fit.add_argument("--mu", type=positive_float, default=0.25, help="pusher–object friction μ_c (the start value with "
                                                            "--fit-mu) (default 0.25)")
     fit.add_argument("--fit-mu", action="store_true", help="fit μ_c as well")
     fit.add_argument("--out", type=out_folder, default="out/fit",

@@ -47,7 +47,11 @@ from dexpush.problem.problem import Problem
 from dexpush.problem.scene import Scene
 from dexpush.problem.weights import CostWeights
 
-__all__ = ["ControllerSettings", "ControllerState", "CostWeights", "PushingController", "estimate_step",
+#: commands the controller keeps to predict a late frame to the present: 16 control periods (0.64 s at
+#: 25 Hz) bridge a camera's latency and a few lost frames
+HISTORY = 16
+
+__all__ = ["HISTORY", "ControllerSettings", "ControllerState", "CostWeights", "PushingController", "estimate_step",
            "footprint_shift", "plan_step", "policy_init", "policy_step", "watch_progress"]
 
 
@@ -223,6 +227,9 @@ class PushingController:
         self._frame: jnp.ndarray | None = None              # the newest frame, in the controller's frame
         self._shift = 0.0
         self._warned = False
+        self._frame_time: float | None = None               # capture time of the newest frame
+        self._bad_times = 0
+        self._warned_latency = False
 
     def _warm_up(self, obs: jnp.ndarray) -> None:
         """Run (and so compile) estimate, plan and predict once on ``obs``; results are discarded."""
@@ -264,10 +271,16 @@ class PushingController:
         T = self.settings.mppi.control_period
         period = T if frame_period is None else check_positive("frame_period", frame_period, "s")
         if frame is not None:
+            if not all(hasattr(frame, k) for k in ("object_pose", "pusher_xy", "time")):
+                raise ValueError(f"frame must be an Observation (object_pose, pusher_xy, time) or None, got "
+                                 f"{type(frame).__name__}")
             since = float(checked_vector("frame.time", [frame.time], 1)[0])
             q = checked_vector("object_pose", frame.object_pose, 3)
             p = checked_vector("pusher_xy", frame.pusher_xy, 2)
+            frame = self._timely(frame, since)
+        if frame is not None:
             obs = self._local(q, p)
+            self._frame_time = since
             self.state = _estimate_jit(self.state, obs, self.contour,
                                        self.settings, jnp.float32(period))
             x = self._frame = obs
@@ -287,11 +300,45 @@ class PushingController:
         self._check_estimator()
         return self._issue(u, x)
 
+    def _timely(self, frame: Observation, since: float) -> Observation | None:
+        """``frame``, or None (counted in :attr:`rejected_frame_times`) when its capture time is not after
+        the newest frame's (a repeated or out-of-order frame) or lies ahead of the controller's clock by
+        more than a control period (a clock in other units, or another clock); a frame older than the
+        commands the controller keeps is used, with a warning that its prediction starts late."""
+        T = self.settings.mppi.control_period
+        reason = None
+        if self._frame_time is not None and since <= self._frame_time:
+            reason = f"its time {since:.6g} s is not after the newest frame's ({self._frame_time:.6g} s)"
+        elif since > self._clock + T:
+            reason = (f"its time {since:.6g} s is ahead of the controller's clock ({self._clock:.6g} s since reset, "
+                      "one control period per act): frame times are seconds on the clock that started at reset")
+        if reason is not None:
+            if self._predicted is None:
+                raise ValueError(f"the first call of act() needs a usable frame: {reason}")
+            self._bad_times += 1
+            if self._bad_times == 1:
+                warnings.warn(f"PushingController.act: a frame was set aside, {reason} (counted in "
+                              "rejected_frame_times)", RuntimeWarning, stacklevel=3)
+            return None
+        covered = (self._history[0][0] if self._history else 0.0)
+        if since < covered - 1e-9 and not self._warned_latency:
+            self._warned_latency = True
+            warnings.warn(f"PushingController.act: a frame {self._clock - since:.3g} s old is beyond the "
+                          f"{HISTORY * T:.3g} s of commands the controller keeps; it is predicted to the present "
+                          "from the oldest command kept, less accurately", RuntimeWarning, stacklevel=3)
+        return frame
+
+    @property
+    def rejected_frame_times(self) -> int:
+        """Frames :meth:`act` set aside since :meth:`reset` for their capture time: not after the newest
+        frame's, or ahead of the controller's clock by more than a control period."""
+        return self._bad_times
+
     def _issue(self, u: jnp.ndarray, x: jnp.ndarray) -> np.ndarray:
         c = self.settings.mppi.v_clip     # float32 rounding may sit a hair past the float64 bound
         cmd = np.clip(np.asarray(u, dtype=np.float64), -c, c)
         self._predicted = x
         self._history.append((self._clock, cmd))
-        self._history = self._history[-16:]   # enough to bridge 0.6 s of latency and lost frames
+        self._history = self._history[-HISTORY:]
         self._clock += self.settings.mppi.control_period
         return cmd

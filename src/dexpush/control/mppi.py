@@ -62,7 +62,17 @@ from dexpush.common.checks import check_nonnegative, check_positive
 from dexpush.common.interfaces import CONTROL_PERIOD_S
 from dexpush.control import noise
 
-__all__ = ["MPPIResult", "MPPISettings", "mppi_iteration", "shift_in_time", "slot_durations"]
+#: the fewest samples K an iteration draws: half explore, half refine, and each half needs a few
+MIN_SAMPLES = 16
+#: the most samples K: memory and time grow with K × N_p (the rollouts hold every sample's states)
+MAX_SAMPLES = 65_536
+#: the most prediction steps N_p
+MAX_HORIZON = 200
+#: the longest horizon Σ Δt_k (s): the paper's spans 3.1 s, a stall's stretch doubles it
+MAX_HORIZON_S = 120.0
+
+__all__ = ["MAX_HORIZON", "MAX_HORIZON_S", "MAX_SAMPLES", "MIN_SAMPLES", "MPPIResult", "MPPISettings", "mppi_iteration",
+           "shift_in_time", "slot_durations"]
 
 Dynamics = Callable[[jnp.ndarray, jnp.ndarray, jnp.ndarray, Any], jnp.ndarray]
 Cost = Callable[[jnp.ndarray, Any], jnp.ndarray]
@@ -91,9 +101,12 @@ class MPPISettings:
     update: str = "sampled"
 
     def __post_init__(self) -> None:
-        for name in ("num_samples", "horizon"):
-            if int(getattr(self, name)) < 1:
-                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        for name, low, high in (("num_samples", MIN_SAMPLES, MAX_SAMPLES), ("horizon", 1, MAX_HORIZON),
+                                ("explore_knots", 0, MAX_HORIZON)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | np.integer) or not low <= v <= high:
+                raise ValueError(f"{name} must be a whole number from {low} to {high}, got {v!r}")
+        check_nonnegative("growth", self.growth)
         if not 0.0 <= self.refine_fraction <= 1.0:
             raise ValueError(f"refine_fraction must be in [0, 1], got {self.refine_fraction!r}")
         for name in ("dt0", "noise_sigma", "refine_sigma", "v_max", "temperature", "control_period"):
@@ -101,6 +114,10 @@ class MPPISettings:
         check_nonnegative("control_cost", self.control_cost)
         if self.update not in ("sampled", "clipped"):
             raise ValueError(f"update must be 'sampled' or 'clipped', got {self.update!r}")
+        span = float(np.sum(self.step_durations()))
+        if not span <= MAX_HORIZON_S:
+            raise ValueError(f"the prediction horizon spans {span:.3g} s (dt0, growth, horizon); it must be at most "
+                             f"{MAX_HORIZON_S:g} s")
 
     @property
     def v_clip(self) -> float:

@@ -18,6 +18,7 @@ minus the recorded q_{k+1}, as [Δx, Δy, c·Δθ] with c = 0.05 m/rad (a 5-cm l
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -25,14 +26,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from dexpush.common.checks import check_positive
 from dexpush.common.se2 import pose_error, wrap_angle
 from dexpush.data.labelling import Samples, contact_geometry, samples
 from dexpush.data.push import RATE_HZ, Push
 from dexpush.model.cgvmm import FREE, Contour, integrate, replay
 from dexpush.model.shape import Shape
 
-__all__ = ["FitResult", "LambdaFit", "fit_beta", "fit_lambda", "fit_pushes", "one_step", "replay_push", "residuals",
-           "whole_push_errors"]
+__all__ = ["MAX_FIT_SAMPLES", "FitResult", "LambdaFit", "fit_beta", "fit_lambda", "fit_pushes", "one_step",
+           "replay_push", "residuals", "whole_push_errors"]
 
 
 def one_step(contour: Contour, states: np.ndarray, inputs: np.ndarray, lam: np.ndarray,
@@ -183,6 +185,13 @@ class FitResult:
     whole_push_error_mm: float       #: mean final-pose error of whole-push open-loop replays
     whole_push_error_deg: float
     replays: list[np.ndarray] = field(default_factory=list, repr=False)   #: (T, 5) per push
+    motion_mm: float = float("nan")  #: mean recorded object motion per sample, for scale
+
+    @property
+    def explains(self) -> bool:
+        """Whether the model explains the motion: its one-step error is below half the motion per sample
+        (a wrong shape, exchanged columns or degrees for radians give errors as large as the motion)."""
+        return bool(self.one_step_error_mm < 0.5 * self.motion_mm)
 
     def summary(self) -> dict:
         return {"lambda": [round(float(v), 5) for v in self.lam],
@@ -193,17 +202,41 @@ class FitResult:
                 "one_step_error_mm": round(self.one_step_error_mm, 3),
                 "one_step_error_deg": round(self.one_step_error_deg, 3),
                 "whole_push_error_mm": round(self.whole_push_error_mm, 2),
-                "whole_push_error_deg": round(self.whole_push_error_deg, 2)}
+                "whole_push_error_deg": round(self.whole_push_error_deg, 2),
+                "motion_mm_per_sample": round(self.motion_mm, 3)}
+
+
+#: the most contact samples a fit uses: more are thinned evenly (the fit's cost grows with the samples,
+#: its estimate hardly moves past a few thousand); ``FitResult.samples`` says how many were used
+MAX_FIT_SAMPLES = 20_000
+
+
+def _local(push: Push, origin: np.ndarray) -> Push:
+    """``push`` with its positions taken from ``origin`` (x, y): λ is in the body frame, so a fit is the same
+    in any world frame, and positions near zero keep float32's resolution."""
+    return dataclasses.replace(push, object_pose=push.object_pose - np.r_[origin, 0.0],
+                               pusher_xy=push.pusher_xy - origin)
+
+
+def _thinned(smp: Samples, keep: int) -> Samples:
+    if len(smp.observed) <= keep:
+        return smp
+    idx = np.linspace(0, len(smp.observed) - 1, keep).round().astype(int)
+    return Samples(*(np.asarray(a)[idx] for a in dataclasses.astuple(smp)))
 
 
 def fit_pushes(pushes: list[Push], shape: Shape, mu: float = 0.25, fit_mu: bool = False,
                separation_mm: float = 3.0, stick_ratio: float = 0.1, min_speed_mm_s: float = 5.0) -> FitResult:
     """Fit λ (and μ_c) to ``pushes`` of ``shape``: β first (:func:`fit_beta`), then the full
-    λ by :func:`fit_lambda` from there; the sample selection is :func:`samples`'."""
+    λ by :func:`fit_lambda` from there; the sample selection is :func:`samples`' (at most
+    :data:`MAX_FIT_SAMPLES`, thinned evenly). Each push is fitted in a frame at its first pose."""
     if not pushes:
         raise ValueError("no pushes to fit")
+    check_positive("mu", mu, "the pusher–object friction coefficient (its start value with fit_mu)")
+    origins = [np.asarray(p.object_pose[0, :2], np.float64) for p in pushes]
+    pushes = [_local(p, o) for p, o in zip(pushes, origins)]
     contour = Contour.of(shape)
-    smp = samples(pushes, shape, separation_mm, stick_ratio, min_speed_mm_s)
+    smp = _thinned(samples(pushes, shape, separation_mm, stick_ratio, min_speed_mm_s), MAX_FIT_SAMPLES)
     n_contact = int(np.sum(smp.observed != FREE))
     if n_contact < 10:
         raise ValueError(f"only {n_contact} samples with the pusher moving ≥ {min_speed_mm_s:g} mm/s in contact "
@@ -217,7 +250,9 @@ def fit_pushes(pushes: list[Push], shape: Shape, mu: float = 0.25, fit_mu: bool 
     fit = fit_lambda(contour, smp, mu, beta, fit_mu=fit_mu)
     r = residuals(contour, smp, fit.lam, fit.mu).reshape(-1, 3)
     wp = whole_push_errors(contour, pushes, fit.lam, fit.mu)
+    motion = np.linalg.norm(smp.next_pose[:, :2] - smp.states[:, :2], axis=-1)
+    replays = [replay_push(contour, p, fit.lam, fit.mu) + np.r_[o, 0.0, o] for p, o in zip(pushes, origins)]
     return FitResult(fit.lam, fit.std[:3], fit.mu, float(fit.std[3]) if fit_mu else None, len(pushes),
                      len(smp.observed), float(np.mean(np.hypot(r[:, 0], r[:, 1]))) * 1000,
-                     float(np.degrees(np.mean(np.abs(r[:, 2]) / 0.05))), wp[0], wp[1],
-                     [replay_push(contour, p, fit.lam, fit.mu) for p in pushes])
+                     float(np.degrees(np.mean(np.abs(r[:, 2]) / 0.05))), wp[0], wp[1], replays,
+                     float(np.mean(motion)) * 1000)

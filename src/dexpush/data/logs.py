@@ -27,9 +27,12 @@ import numpy as np
 from dexpush.data.mit import load_push
 from dexpush.data.push import Push, resample
 
-__all__ = ["COLUMNS", "read_log"]
+__all__ = ["COLUMNS", "MAX_PUSH_S", "read_log"]
 
 COLUMNS = ("t", "x", "y", "theta", "px", "py")
+#: the longest push (s) a log may hold: one push is seconds long; a longer one is several pushes (a `push`
+#: column splits them) or times in other units
+MAX_PUSH_S = 600.0
 
 
 def _push_from_arrays(name: str, t: np.ndarray, q: np.ndarray, p: np.ndarray) -> Push:
@@ -41,6 +44,14 @@ def _push_from_arrays(name: str, t: np.ndarray, q: np.ndarray, p: np.ndarray) ->
     if len(rows) < 10 or rows[-1, 0] - rows[0, 0] < 0.5:
         raise ValueError(f"{name}: a push needs at least 10 finite samples over 0.5 s, got {len(rows)} "
                          f"over {rows[-1, 0] - rows[0, 0] if len(rows) else 0:.2f} s")
+    span = rows[-1, 0] - rows[0, 0]
+    if span > MAX_PUSH_S:
+        unit = " (are the times in milliseconds or nanoseconds? they must be seconds)" if span > 1e4 else ""
+        raise ValueError(f"{name}: a push spans {span:.3g} s, more than {MAX_PUSH_S:g} s{unit}; split the log into "
+                         "pushes with a `push` column")
+    if np.max(np.abs(rows[:, 3])) > 4 * np.pi and np.max(np.abs(np.diff(rows[:, 3]))) > np.pi:
+        raise ValueError(f"{name}: theta jumps by up to {np.max(np.abs(np.diff(rows[:, 3]))):.3g} between samples; "
+                         "it must be in radians (degrees?)")
     rows[:, 3] = np.unwrap(rows[:, 3])
     t0, t1 = rows[0, 0], rows[-1, 0]
     grid, q25 = resample(rows[:, 0], rows[:, 1:4], t0, t1)
@@ -80,8 +91,10 @@ def _read_csv(path: Path) -> list[Push]:
 def _read_npz(path: Path) -> list[Push]:
     try:
         z = np.load(path)
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, EOFError) as exc:
         raise ValueError(f"{path.name}: not a readable .npz file ({exc})") from None
+    if not isinstance(z, np.lib.npyio.NpzFile):
+        raise ValueError(f"{path.name}: not an .npz archive (a single array, .npy?); save it with numpy.savez")
     with z:
         missing = [k for k in ("t", "object_pose", "pusher_xy") if k not in z]
         if missing:

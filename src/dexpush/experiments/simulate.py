@@ -43,6 +43,7 @@ from dexpush.experiments.scenarios import MAX_STEPS
 from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C, Contour, integrate
 from dexpush.problem.problem import Problem, is_success
 from dexpush.problem.scene import Scene
+from dexpush.world.model_plant import check_no_tunnelling
 
 __all__ = ["ESTIMATOR_COUNTERS", "Starts", "TrialResult", "TrialSpec", "simulate"]
 
@@ -170,6 +171,9 @@ def simulate(problem: Problem, trials: Sequence[TrialSpec], settings: Controller
         raise ValueError(f"max_steps, lanes and chunk must be >= 1, got {max_steps}, {lanes}, {chunk}")
     if substeps < 10:
         raise ValueError(f"substeps must be >= 10 (docs/conventions.md#plants), got {substeps}")
+    # the fastest command, held for one substep, must not carry the pusher through the object
+    check_no_tunnelling(np.full(2, settings.mppi.v_clip), settings.mppi.control_period / substeps,
+                        problem.shape.pusher_radius, "substeps (or shorten mppi.control_period)")
     for spec in trials:
         check_params(checked_vector("params", spec.params, 3))
         if int(spec.seed) < 0:

@@ -59,12 +59,16 @@ class ModelPlant:
                  substeps: int = 10) -> None:
         if substeps < 10:
             raise ValueError(f"substeps must be >= 10 (docs/conventions.md#plants), got {substeps}")
-        if not (np.isfinite(mu) and mu > 0):
-            raise ValueError(f"mu must be > 0, got {mu!r}")
+        check_positive("mu", mu, "the pusher–object friction coefficient")
         self.shape = shape
         self.contour = Contour.of(shape)
         self.params = checked_vector("params", params, 3)
         check_params(self.params)
+        lo, hi = shape.footprint_box[:2], shape.footprint_box[2:]
+        if np.any(self.params[1:] < lo) or np.any(self.params[1:] > hi):
+            raise ValueError(f"the centre of friction ({self.params[1]:g}, {self.params[2]:g}) m lies outside the "
+                             f"footprint of {shape.name} (x in [{lo[0]:g}, {hi[0]:g}], y in [{lo[1]:g}, {hi[1]:g}] m "
+                             "from its reference point): the support under the object holds it")
         self.mu = float(mu)
         self.substeps = int(substeps)
         self._x: jnp.ndarray | None = None

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive, checked_vector
-from dexpush.common.interfaces import CONTROL_PERIOD_S, Frame, Plant, check_plant
+from dexpush.common.interfaces import CONTROL_PERIOD_S, Frame, Observation, Plant, check_plant
 
 __all__ = ["MAX_CAMERA_HZ", "Camera", "SensorSettings"]
 
@@ -97,13 +97,23 @@ class Camera:
         self.time = 0.0
         self.captured = self.dropped = self.delivered = 0
 
+    def _observe(self) -> Observation:
+        """The plant's observation, checked: a finite (3,) pose and a finite (2,) pusher position."""
+        obs = self.plant.observe()
+        name = type(self.plant).__name__
+        if not all(hasattr(obs, k) for k in ("object_pose", "pusher_xy")):
+            raise ValueError(f"{name}.observe() must return an Observation (object_pose, pusher_xy, time), got "
+                             f"{type(obs).__name__}")
+        return Observation(checked_vector(f"{name}.observe().object_pose", obs.object_pose, 3),
+                           checked_vector(f"{name}.observe().pusher_xy", obs.pusher_xy, 2), getattr(obs, "time", 0.0))
+
     def _capture(self) -> None:
         s = self.settings
         self.captured += 1
         if self._rng.random() < s.drop_prob:
             self.dropped += 1
             return
-        obs = self.plant.observe()
+        obs = self._observe()
         noise = self._rng.normal(size=5) * [s.pos_std_m, s.pos_std_m, s.heading_std_rad, s.pusher_std_m,
                                             s.pusher_std_m]
         frame = Frame(obs.object_pose + noise[:3], obs.pusher_xy + noise[3:], self.time)
@@ -119,7 +129,7 @@ class Camera:
         s = self.settings
         noise = self._rng.normal(size=5) * [s.pos_std_m, s.pos_std_m, s.heading_std_rad, s.pusher_std_m,
                                             s.pusher_std_m]
-        obs = self.plant.observe()
+        obs = self._observe()
         self._next_capture = 1.0 / s.rate_hz if s.rate_hz else np.inf
         return Frame(obs.object_pose + noise[:3], obs.pusher_xy + noise[3:], 0.0)
 
@@ -148,5 +158,6 @@ class Camera:
 
     @property
     def state(self) -> np.ndarray:
-        """The plant's true state (for evaluation only; a controller must not read it)."""
-        return self.plant.state
+        """The plant's true state (for evaluation only; a controller must not read it), checked: a finite
+        [x_b, y_b, θ, x_c, y_c]."""
+        return checked_vector(f"{type(self.plant).__name__}.state", self.plant.state, 5)
