@@ -10,7 +10,7 @@ This script measures, per object, what bounds that figure from below (docs/valid
    that sees each push only after predicting it can do better than these;
 3. **prospective refit**: before push i, λ and μ_c fitted (``fit_pushes``, with ``fit_mu``) to pushes
    1 … i−1, push i replayed with it — the best an estimator that pools all past pushes does;
-4. **the controller's UKF** (``dexpush.data.online``), with μ_c fixed at 0.25 and with ``estimate_mu``.
+4. **the controller's UKF** (``dexpush.data.online_ukf``), with μ_c fixed at 0.25 and with ``estimate_mu``.
 
 Usage::
 
@@ -32,7 +32,7 @@ from dexpush.common.files import write_json_atomic
 from dexpush.control.estimator import UKFSettings
 from dexpush.data.fitting import fit_pushes, whole_push_errors
 from dexpush.data.mit import OBJECTS, load_folder
-from dexpush.data.online import online_session
+from dexpush.data.online_ukf import online_session
 from dexpush.experiments.registry import PARAMS
 from dexpush.model.cgvmm import Contour
 

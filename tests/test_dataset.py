@@ -152,7 +152,7 @@ def test_a_stationary_pusher_or_an_all_nan_stream_is_one_clear_error(tmp_path: P
 def test_online_estimation_learns_beta_from_pushes(folder: Path) -> None:
     """validate-mit --online's core: the controller's UKF over the pushes in order moves β from the prior
     toward the β that generated them, and predicts the one-step motion at least as well as the prior."""
-    from dexpush.data.online import nmse, online_session
+    from dexpush.data.online_ukf import nmse, online_session
 
     pushes = load_folder(folder)
     summary, (t, lam) = online_session(pushes, OBJECTS["rect1"](), prior=(15.0, 0.0, 0.0), mu=0.25)
@@ -170,7 +170,7 @@ def test_online_estimation_of_mu_moves_toward_the_true_friction(folder: Path) ->
     at μ_c = 0.25): from a prior of 0.5 the estimate ends nearer the truth, and every push's replay
     and one-step prediction use the μ_c that stood before it."""
     from dexpush.control.estimator import UKFSettings
-    from dexpush.data.online import online_session
+    from dexpush.data.online_ukf import online_session
 
     pushes = load_folder(folder)
     summary, (_, lam) = online_session(pushes, OBJECTS["rect1"](), prior=(30.0, 0.0, 0.0), mu=0.5,

@@ -3,6 +3,7 @@ missing and extra keys give a valid result or one clear ``ValueError``, never an
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -431,3 +432,111 @@ def test_fit_is_the_same_far_from_the_origin_and_says_when_it_explains_little(tm
     code = main(["fit", str(swapped), "--shape", "tee", "--quiet", "--out", str(tmp_path / "s")])
     err = capsys.readouterr().err
     assert code == 2 or "explains little" in err
+
+
+def test_fit_refuses_a_heading_in_degrees(tmp_path, capsys) -> None:
+    import numpy as np
+
+    rows = _push_rows()
+    for k, r in enumerate(rows):
+        r[3] = 170.0 + 40.0 * np.sin(k / 3)        # degrees that swing past ±180 (or a turn of 40 rad/s)
+    log = _log(tmp_path / "deg.csv", rows)
+    assert "in radians (degrees?)" in _error(capsys, ["fit", str(log), "--shape", "rect", "--out", str(tmp_path / "o")])
+
+
+# ---------------------------------------------------------------------------- results folders
+def test_a_damaged_results_folder_is_named_not_a_traceback(tmp_path, capsys) -> None:
+    from dexpush.experiments.benchmark import run_benchmark
+
+    (tmp_path / "settings.json").write_text("[1, 2, 3]")
+    with pytest.raises(ValueError, match="not a dexpush settings file"):
+        run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=1, progress=False)
+    (tmp_path / "settings.json").unlink()
+    run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=1, progress=False)
+    npz = tmp_path / "trajectories" / "I_rect_known_mppi.npz"
+    npz.write_bytes(npz.read_bytes()[:40])                          # truncated
+    with pytest.raises(ValueError, match="damaged"):
+        run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0, 1], max_steps=2, lanes=1, progress=False)
+
+
+def test_ctrl_c_into_bench_says_how_to_resume_without_a_traceback(tmp_path) -> None:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "dexpush.cli", "bench", "--tasks", "I,II", "--shapes", "rect",
+                             "--params", "known", "--methods", "mppi", "--trials", "2", "--workers", "2",
+                             "--no-figures", "--out", str(tmp_path)], stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    time.sleep(6)
+    import os
+
+    os.killpg(proc.pid, signal.SIGINT)                 # as a terminal's Ctrl-C: the whole process group
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "the same command resumes there" in err
+
+
+def test_print_config_refuses_what_the_run_would_refuse(tmp_path, capsys) -> None:
+    path = tmp_path / "c.toml"
+    path.write_text("[physics]\ntable_friction = 0.5\n")
+    assert "[physics] sets the physics plant" in _error(capsys, ["run", "--config", str(path), "--print-config"])
+
+
+# ---------------------------------------------------------------------------- property-based: configs and logs
+CONFIG_KEYS = ["[run] max_steps", "[run] seed", "[run] goal", "[run] obstacles", "[run] mu", "[controller] mu",
+               "[controller.mppi] num_samples", "[controller.mppi] horizon", "[controller.mppi] growth",
+               "[controller.stall] after_s", "[controller.ukf] window", "[sensor] rate_hz", "[sensor] drop_prob",
+               "[controller] bogus", "[nonsense] key"]
+CONFIG_VALUES = st.one_of(st.booleans(), st.integers(-5, 5), st.sampled_from([1e30, -1e30, 2.5, 0.0]),
+                          st.floats(allow_nan=False, allow_infinity=False, width=32), st.text(max_size=3),
+                          st.just([0.1, 0.2, 0.3]), st.just([[0.1, 0.2]]), st.just({"a": 1}))
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(key=st.sampled_from(CONFIG_KEYS), value=CONFIG_VALUES)
+def test_a_config_with_any_value_gives_a_config_or_one_clear_error(tmp_path, key, value) -> None:
+    from dexpush.cli.config import load_config
+
+    table, name = key.split(" ")
+    path = tmp_path / "c.toml"
+    path.write_text(f"{table}\n{name} = {_toml(value)}\n")
+    try:
+        config = load_config(path)
+    except ValueError as exc:
+        assert "\n" not in str(exc) and str(exc)
+        return
+    assert config.controller.mppi.num_samples >= 16 and config.run.max_steps >= 1
+
+
+LOG_VALUES = st.one_of(st.sampled_from(["nan", "inf", "", "x", "1e30", "-0.0", "1e9"]),
+                       st.floats(-1, 1, allow_nan=False).map(repr))
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(column=st.integers(0, 5), rows=st.lists(st.integers(0, 99), min_size=1, max_size=20), value=LOG_VALUES,
+       header=st.sampled_from(["t,x,y,theta,px,py", "t,x,y,theta,px", "t,x,y,theta,px,py,push", "x,y"]))
+def test_a_log_with_any_damage_gives_pushes_or_one_clear_error(tmp_path, column, rows, value, header) -> None:
+    from dexpush.data.push_logs import read_log
+
+    base = [[repr(float(v)) for v in r] for r in _push_rows_once()]
+    for r in rows:
+        base[r][column] = value
+    width = len(header.split(","))
+    lines = [",".join((r + ["0"] * width)[:width]) for r in base]
+    path = tmp_path / "log.csv"
+    path.write_text(header + "\n" + "\n".join(lines) + "\n")
+    try:
+        pushes = read_log(path)
+    except ValueError as exc:
+        assert "\n" not in str(exc) and str(exc)
+        return
+    import numpy as np
+
+    assert pushes and all(np.all(np.isfinite(p.states)) for p in pushes)
+
+
+@functools.cache
+def _push_rows_once() -> tuple:
+    return tuple(tuple(r) for r in _push_rows())

@@ -36,7 +36,7 @@ INNER = {
     "problem": [{"weights"}, {"scene"}, {"obstacles"}, {"cost"}, {"problem"}],
     "control": [{"noise", "ukf"}, {"mppi", "proposals", "estimator"}, {"settings"}, {"policy"}, {"controller"}],
     "world": [{"model_plant", "sensing"}, {"physics_plant"}],
-    "data": [{"push"}, {"labelling"}, {"fitting"}, {"mit"}, {"validation", "logs", "online"}],
+    "data": [{"push"}, {"labelling"}, {"fitting"}, {"mit"}, {"validation", "push_logs", "online_ukf"}],
     "experiments": [{"scenarios"}, {"simulate"}, {"methods"}, {"registry"}, {"records"}, {"runner"}, {"tables"},
                     {"results_folder"}, {"benchmark"}],
     "cli": [{"arguments", "settings_file"}, {"config", "flags"}, {"commands"}, {"main"}],

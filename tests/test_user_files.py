@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from dexpush import Shape
 from dexpush.cli import main
 from dexpush.cli.config import RunConfig, build_plant, build_task, default_config, load_config, to_toml
-from dexpush.data.logs import read_log
+from dexpush.data.push_logs import read_log
 from dexpush.model.kernel import kernel_point
 from dexpush.model.radial_table import radial_table_polygons
 from dexpush.world.model_plant import ModelPlant

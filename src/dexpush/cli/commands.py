@@ -77,11 +77,12 @@ def effective_config(args: argparse.Namespace, run_flags: bool = True):
 
 
 def cmd_run(args: argparse.Namespace) -> dict:
-    from dexpush.cli.config import build_plant, build_task, lambda_pred, load_shape, to_toml
+    from dexpush.cli.config import build_plant, build_task, check_run_config, lambda_pred, load_shape, to_toml
     from dexpush.experiments.runner import run_episode
     from dexpush.model.cgvmm import LAMBDA_TRUE
 
     config = effective_config(args)
+    check_run_config(config)
     if getattr(args, "print_config", False):
         if config.run.shape.endswith(".toml"):    # the printed file names the shape file from wherever it is saved
             config = config.replace(run={"shape": str(Path(config.run.shape).resolve())})
@@ -142,13 +143,13 @@ def cmd_validate(args: argparse.Namespace) -> dict:
 
 
 def _validate_online(pushes: list, args: argparse.Namespace, out: Path, files: dict) -> dict:
-    """``validate-mit --online``: dexpush.data.online per object, written to online.json and lambda.png."""
+    """``validate-mit --online``: dexpush.data.online_ukf per object, written to online.json and lambda.png."""
     import matplotlib.pyplot as plt
 
     from dexpush.common.files import write_json_atomic
     from dexpush.control.estimator import UKFSettings
     from dexpush.data.mit import OBJECTS
-    from dexpush.data.online import online_session
+    from dexpush.data.online_ukf import online_session
     from dexpush.experiments.registry import PARAMS
     from dexpush.viz import plot_online_lambda
 
@@ -179,8 +180,8 @@ def cmd_fit(args: argparse.Namespace) -> dict:
     from dexpush.cli.config import load_shape
     from dexpush.common.files import write_json_atomic
     from dexpush.data.fitting import MAX_FIT_SAMPLES, fit_pushes
-    from dexpush.data.logs import read_log
     from dexpush.data.mit import OBJECTS
+    from dexpush.data.push_logs import read_log
     from dexpush.viz import plot_fit
 
     pushes = read_log(args.log)

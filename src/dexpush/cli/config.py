@@ -52,7 +52,7 @@ __all__ = [
     "RunSettings",
     "build_plant",
     "build_task",
-    "check_bench_config",
+    "check_bench_config", "check_run_config",
     "default_config",
     "lambda_pred",
     "load_config",
@@ -183,15 +183,20 @@ def build_plant(config: RunConfig, shape: Shape) -> str | Plant:
     """The world of a run: a registry name when the defaults apply, else the plant object. Settings of
     another plant than the run's are refused, not dropped."""
     run = config.run
-    if run.plant != "physics" and config.physics != PhysicsSettings():
-        raise ValueError(f"[physics] sets the physics plant, but the run's plant is {run.plant!r}: set "
-                         "[run] plant = \"physics\" (or --plant physics), or remove the [physics] table")
+    check_run_config(config)
     if run.plant == "model" and (run.true_params is not None or run.mu is not None):
         return ModelPlant(shape, run.true_params if run.true_params is not None else LAMBDA_TRUE,
                           mu=run.mu if run.mu is not None else MU_C)
     if run.plant == "physics" and config.physics != PhysicsSettings():
         return PhysicsPlant(shape, config.physics)
     return run.plant
+
+
+def check_run_config(config: RunConfig) -> None:
+    """Settings of another plant than the run's are refused, not dropped."""
+    if config.run.plant != "physics" and config.physics != PhysicsSettings():
+        raise ValueError(f"[physics] sets the physics plant, but the run's plant is {config.run.plant!r}: set "
+                         "[run] plant = \"physics\" (or --plant physics), or remove the [physics] table")
 
 
 def check_bench_config(config: RunConfig, args: object) -> None:
