@@ -151,7 +151,7 @@ def test_rerunning_one_seed_reproduces_its_record(tmp_path: Path) -> None:
     timing = {"planning_ms_median", "planning_ms_max"}
     strip = [{k: v for k, v in r.items() if k not in timing} for r in (both[1], alone[0])]
     assert strip[0] == strip[1]
-    assert strip[0]["params_estimate"] != [15.0, 0.0, 0.0]   # the UKF did move λ
+    assert strip[0]["diagnostics"]["params_estimate"] != [15.0, 0.0, 0.0]   # the UKF did move λ
 
 
 def test_tables_agree_with_records(tmp_path: Path) -> None:
@@ -161,8 +161,8 @@ def test_tables_agree_with_records(tmp_path: Path) -> None:
         for s, ok, n, op, pp in [(0, True, 100, 0.7, 1.0), (1, False, 1500, 0.2, 2.0), (2, True, 300, 0.9, 1.4)]
     ]
     for r, stalls in zip(records, (0, 3, 1), strict=True):   # MPPI records count stall restarts
-        r["stall_resets"] = stalls
-    gcs = dict(records[0], method="gcs", offline_plan_s=1.5, replans=2, stall_resets=None)   # GCS: two more fields
+        r["diagnostics"] = {"stall_resets": stalls}
+    gcs = dict(records[0], method="gcs", diagnostics={"offline_plan_s": 1.5, "replans": 2})   # GCS: plan times
     s = summarize(records)
     assert s["success_rate"] == pytest.approx(2 / 3, abs=1e-4) and s["successes"] == 2
     assert s["object_path_m"][0] == pytest.approx(0.8) and s["pusher_path_m"][0] == pytest.approx(1.2)
@@ -177,12 +177,20 @@ def test_tables_agree_with_records(tmp_path: Path) -> None:
     assert "| 2.0 / 9 | – | – | 1.3 |" in md and "| I | rect | known | gcs | 1/1 (100 %) |" in md
     assert md.strip().endswith("| 2.0 / 9 | 1.5 / 1.5 | 2.0 | – | – |")
     lines = Path(files["csv"]).read_text().strip().splitlines()
-    assert len(lines) == 5 and lines[0].endswith("offline_plan_s,replans") and lines[1].endswith(",,")
+    assert len(lines) == 5 and lines[0].endswith(",diagnostics") and lines[1].endswith(',"{""stall_resets"": 0}"')
     # Task III records carry the trial's least clearance: the table gives the least and the median (mm)
     task3 = [dict(r, task="III", clearance_m=g) for r, g in zip(records, (0.012, -0.001, 0.03), strict=True)]
     assert summarize(task3)["clearance_m"] == [-0.001, 0.012]
     write_tables(tmp_path, task3, {"command": "test", "date": "today", "machine": "here"})
     assert Path(files["markdown"]).read_text().strip().endswith("| 1.3 | -1.0 / 12.0 |")
+
+
+def test_records_of_0_3_are_read_with_their_method_fields_as_diagnostics() -> None:
+    from dexpush.experiments.results_folder import upgrade_record
+
+    old = dict(task="I", seed=0, stall_resets=2, rejected_frames=None, offline_plan_s=None, clearance_m=None)
+    assert upgrade_record(old) == dict(task="I", seed=0, clearance_m=None, diagnostics={"stall_resets": 2})
+    assert upgrade_record(upgrade_record(old)) == upgrade_record(old)
 
 
 def test_bench_cli_runs_a_tiny_table(tmp_path: Path, capsys) -> None:
@@ -192,7 +200,7 @@ def test_bench_cli_runs_a_tiny_table(tmp_path: Path, capsys) -> None:
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert summary["trials"] == 1 and summary["conditions"] == 1
     rec = json.loads((tmp_path / "benchmark.json").read_text())["trials"][0]
-    assert rec["method"] == "mppi-ukf" and len(rec["params_estimate"]) == 3
+    assert rec["method"] == "mppi-ukf" and len(rec["diagnostics"]["params_estimate"]) == 3
     assert main(["bench", "--shapes", "star", "--out", str(tmp_path)]) == 2
 
 

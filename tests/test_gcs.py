@@ -125,7 +125,7 @@ def test_bench_fills_the_gcs_column_and_skips_task_iii(tmp_path):
     assert [(r["task"], r["method"]) for r in records] == [("I", "gcs")]
     gcs = records[0]
     assert gcs["steps"] == 30 and not gcs["success"] and gcs["lanes"] == 1
-    assert gcs["offline_plan_s"] > 0.01 and gcs["replans"] >= 0
+    assert gcs["diagnostics"]["offline_plan_s"] > 0.01 and gcs["diagnostics"]["replans"] >= 0
     assert not (tmp_path / "conditions" / "III_rect_known_gcs.json").exists()
     table = Path(write_tables(tmp_path, records, {})["markdown"]).read_text()
     row = next(line for line in table.splitlines() if "| gcs |" in line)
@@ -152,7 +152,8 @@ def test_cli_runs_gcs_and_refuses_task_iii(tmp_path):
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 1, proc.stderr[-2000:]      # 40 steps cannot reach the goal: exit 1
     rec = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert rec["method"] == "gcs" and rec["steps"] == 40 and rec["offline_plan_s"] > 0.01 and rec["replans"] >= 0
+    assert rec["method"] == "gcs" and rec["steps"] == 40 and rec["diagnostics"]["offline_plan_s"] > 0.01 \
+        and rec["diagnostics"]["replans"] >= 0
     bad = subprocess.run([sys.executable, "-m", "dexpush.cli", "run", "--task", "III", "--method", "gcs",
                           "--out", str(tmp_path / "bad")], capture_output=True, text=True, timeout=300)
     assert bad.returncode != 0 and "obstacle" in bad.stderr

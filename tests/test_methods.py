@@ -63,7 +63,7 @@ def test_a_registered_method_runs_through_run(toy, tmp_path, capsys) -> None:
     code = main(["run", "--method", "toy", "--max-steps", "5", "--no-animation", "--quiet", "--out", str(tmp_path)])
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert code == 1 and summary["method"] == "toy" and summary["steps"] == 5   # 5 steps: no success
-    assert summary["stall_resets"] == 5                                          # its diagnostics reach the record
+    assert summary["diagnostics"] == {"stall_resets": 5}                         # its diagnostics reach the record
     assert json.loads((tmp_path / "summary.json").read_text())["method"] == "toy"
 
 

@@ -9,7 +9,7 @@ per-condition numbers of docs/conventions.md#benchmark-tasks (success rate, path
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -62,20 +62,16 @@ class EpisodeRecord:
     contact_switches: int         #: contact on/off transitions
     planning_ms_median: float     #: batched runs: a lane's share of a control step's wall time (UKF + MPPI +
     planning_ms_max: float        #: plant; chunk time / (lanes × steps)); other runs: the controller's time per act
-    params_estimate: list[float] | None = None
     lanes: int = 1                #: lanes of the batch it ran in (needed to reproduce it exactly)
     plant: str = "model"          #: the world: model (C-GVMM, λ_true), physics (MuJoCo), or a user's plant
     sensor: str = "exact"         #: what the controller saw (see dexpush.world.sensing)
-    offline_plan_s: float | None = None   #: GCS: wall time of the offline plan (before the first step)
-    replans: int | None = None            #: GCS: plans made during tracking
-    rejected_frames: int | None = None    #: frames the λ estimator's gate rejected (outliers, non-finite)
-    estimator_resets: int | None = None   #: times the λ estimator was reset to its prior (non-finite state)
-    estimator_updates: int | None = None  #: informative windows that updated the λ estimate
-    gated_windows: int | None = None      #: of those, windows the innovation gate down-weighted
-    stall_resets: int | None = None       #: MPPI: planner restarts after a stall (docs/controller.md#stalls)
     #: with obstacles: the smallest gap (m) between an obstacle and the object or the pusher over the trial
     #: (≤ 0 on a touch; :func:`dexpush.problem.obstacles.clearance`)
     clearance_m: float | None = None
+    #: what the method reports of the trial (:meth:`dexpush.experiments.methods.Method.diagnostics`), e.g.
+    #: MPPI's ``stall_resets``, the UKF's ``rejected_frames``, ``estimator_updates`` and ``params_estimate``,
+    #: GCS's ``offline_plan_s`` and ``replans``
+    diagnostics: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass
@@ -147,7 +143,7 @@ def make_episode(problem: Problem, condition: Condition, result: TrialResult, la
         planning_ms_median=round(float(np.median(ms)), 3), planning_ms_max=round(float(np.max(ms)), 3),
         lanes=int(lanes), plant=plant, sensor=sensor_label(sensor),
         clearance_m=round(float(gaps.min()), 5) if gaps is not None else None,
-        **get_method(condition.method).diagnostics(result))
+        diagnostics=get_method(condition.method).diagnostics(result))
     return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(problem.goal),
                    np.asarray(problem.obstacles).reshape(-1, 3))
 
@@ -161,9 +157,12 @@ def summarize(trials: list[dict]) -> dict:
         return [round(float(v.mean()), 4), round(float(v.std()), 4)] if len(v) else None
 
     plan = np.array([t["planning_ms_median"] for t in trials], float)
-    offline = np.array([t["offline_plan_s"] for t in trials if t.get("offline_plan_s") is not None], float)
-    replans = np.array([t["replans"] for t in trials if t.get("replans") is not None], float)
-    stalls = np.array([t["stall_resets"] for t in trials if t.get("stall_resets") is not None], float)
+    def reported(key: str) -> np.ndarray:
+        """A diagnostic over the trials that report it."""
+        values = [t.get("diagnostics", {}).get(key) for t in trials]
+        return np.array([v for v in values if v is not None], float)
+
+    offline, replans, stalls = reported("offline_plan_s"), reported("replans"), reported("stall_resets")
     gaps = np.array([t["clearance_m"] for t in trials if t.get("clearance_m") is not None], float)
     return {"trials": len(trials), "successes": len(ok),
             "success_rate": round(len(ok) / len(trials), 4) if trials else None,

@@ -33,16 +33,41 @@ from dexpush.experiments.scenarios import Task
 from dexpush.model.shape import Shape
 from dexpush.world.sensing import SensorSettings
 
-__all__ = ["ABSENT_MEANS", "claim_folder", "draw_condition", "folder_records", "load_condition", "load_trajectories",
-           "run_settings", "saved_settings", "store_trajectory"]
+__all__ = [
+    "ABSENT_MEANS",
+    "FLAT_DIAGNOSTICS",
+    "claim_folder",
+    "draw_condition",
+    "folder_records",
+    "load_condition",
+    "load_trajectories",
+    "run_settings",
+    "saved_settings",
+    "store_trajectory",
+    "upgrade_record",
+]
+
+
+#: the fields a record of an older dexpush carried for what is now its method's ``diagnostics``
+FLAT_DIAGNOSTICS = ("offline_plan_s", "replans", "rejected_frames", "estimator_resets", "estimator_updates",
+                    "gated_windows", "stall_resets", "params_estimate")
+
+
+def upgrade_record(record: dict) -> dict:
+    """A record in today's layout: an older record's method fields moved into ``diagnostics`` (those it had)."""
+    if "diagnostics" in record:
+        return record
+    out = {k: v for k, v in record.items() if k not in FLAT_DIAGNOSTICS}
+    out["diagnostics"] = {k: record[k] for k in FLAT_DIAGNOSTICS if record.get(k) is not None}
+    return out
 
 
 def load_condition(path: Path) -> dict[int, dict]:
-    """A condition file's records by seed ({} when there is none)."""
+    """A condition file's records by seed, in today's layout ({} when there is none)."""
     if not path.exists():
         return {}
     try:
-        return {int(r["seed"]): r for r in json.loads(path.read_text())["trials"]}
+        return {int(r["seed"]): upgrade_record(r) for r in json.loads(path.read_text())["trials"]}
     except (json.JSONDecodeError, KeyError, TypeError) as exc:
         raise ValueError(f"{path}: not a dexpush condition file ({exc}); delete it to start over") from exc
 

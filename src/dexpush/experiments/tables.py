@@ -28,7 +28,7 @@ def write_tables(out: str | os.PathLike, records: list[dict], meta: dict) -> dic
         writer = csv.DictWriter(fh, fieldnames=cols, restval="")
         writer.writeheader()
         for r in records:
-            writer.writerow({k: json.dumps(v) if isinstance(v, list) else v for k, v in r.items()})
+            writer.writerow({k: json.dumps(v) if isinstance(v, list | dict) else v for k, v in r.items()})
 
     def fmt(ms: list[float] | None) -> str:
         return f"{ms[0]:.3f} ± {ms[1]:.3f}" if ms else "–"
