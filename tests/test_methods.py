@@ -123,3 +123,26 @@ def test_method_names_are_compared_only_in_the_methods_module() -> None:
                     found += [f"{path.relative_to(PACKAGE)}:{node.lineno}" for c in consts
                               if isinstance(c, ast.Constant) and c.value in names]
     assert not found, f"method names tested outside dexpush.experiments.methods: {found}"
+
+
+def test_the_env_takes_a_problem() -> None:
+    from dexpush.problem import Problem
+
+    problem = Problem(Shape.ellipse(), (0.3, 0.1, 0.5), obstacles=((0.15, 0.0, 0.03),), tolerance_m=0.02)
+    env = PushEnv(task="I", problem=problem)
+    obs, _ = env.reset(seed=1)
+    assert env.problem is problem and env.shape is problem.shape and env.obstacles == problem.obstacles
+    np.testing.assert_allclose(obs[5:], [0.3, 0.1, 0.5], atol=1e-6)
+    with pytest.raises(ValueError, match="holds the shape, the goal"):
+        PushEnv(problem=problem, goal=(0.0, 0.0, 0.0))
+
+
+def test_a_cli_summary_is_the_last_line_even_through_a_pipe(tmp_path) -> None:
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "dexpush.cli", "run", "--max-steps", "30", "--no-animation",
+                           "--out", str(tmp_path)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                          timeout=300)
+    lines = proc.stdout.splitlines()
+    assert "\r" not in proc.stdout and json.loads(lines[-1])["steps"] == 30

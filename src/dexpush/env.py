@@ -29,6 +29,8 @@
   uniform in ``goal_range`` = ((x_lo, x_hi), (y_lo, y_hi)) (m) and θ ∈ [−π, π); or one episode's,
   ``reset(options={"goal": (x, y, θ)})``. Goals lie within the observation's ±10 m.
 * ``success_position_m``, ``success_heading_deg``: the success gate (default 8 mm and 3°).
+* ``problem``: a :class:`dexpush.problem.problem.Problem` instead of ``shape``, ``goal``, the obstacles
+  and the success gate (the task still gives the start distribution).
 
 Each reset draws a start from the task's distribution (docs/conventions.md#benchmark-tasks)
 with the environment's ``np_random``, so ``reset(seed=s)`` is reproducible.
@@ -129,7 +131,16 @@ class PushEnv(gym.Env):
                  sensor: SensorSettings | None = None, max_steps: int = MAX_STEPS,
                  render_mode: str | None = None, mppi: MPPISettings | None = None, goal: object = None,
                  goal_range: object = ((-0.5, 0.5), (-0.5, 0.5)), success_position_m: float = SUCCESS_POSITION_M,
-                 success_heading_deg: float = SUCCESS_HEADING_DEG) -> None:
+                 success_heading_deg: float = SUCCESS_HEADING_DEG, problem: Problem | None = None) -> None:
+        if problem is not None:
+            if not isinstance(problem, Problem):
+                raise ValueError(f"problem must be a dexpush Problem, got {problem!r}")
+            if shape != "rect" or goal is not None or (success_position_m, success_heading_deg) != (
+                    SUCCESS_POSITION_M, SUCCESS_HEADING_DEG):
+                raise ValueError("a Problem holds the shape, the goal and the success test: give them in it, not "
+                                 "beside it")
+            shape, goal = problem.shape, problem.goal
+            success_position_m, success_heading_deg = problem.tolerance_m, problem.tolerance_deg
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         if isinstance(plant, str) and plant not in PLANTS:
@@ -137,6 +148,7 @@ class PushEnv(gym.Env):
         if int(max_steps) < 1:
             raise ValueError(f"max_steps must be >= 1, got {max_steps}")
         self.task = get_task(task)
+        self.obstacles = problem.obstacles if problem is not None else self.task.obstacles
         self.shape = make_shape(shape) if isinstance(shape, str) else shape
         if not isinstance(self.shape, Shape):
             raise ValueError(f"shape must be a name or a dexpush.Shape, got {shape!r}")
@@ -144,7 +156,7 @@ class PushEnv(gym.Env):
         self.max_steps = int(max_steps)
         world = make_plant(plant, self.shape) if isinstance(plant, str) else check_plant(plant)
         self.camera = Camera(world, sensor or SensorSettings())
-        self._c = CostWeights().c
+        self._c = (problem.weights if problem is not None else CostWeights()).c
         if mppi is not None and not isinstance(mppi, MPPISettings):
             raise ValueError(f"mppi must be a dexpush.MPPISettings, got {mppi!r}")
         mppi = mppi or MPPISettings()
@@ -154,7 +166,7 @@ class PushEnv(gym.Env):
         self.observation_space = spaces.Box(-_OBS_LIMIT, _OBS_LIMIT, dtype=np.float32)
         self.goals = _Goals(self.task, goal, goal_range, success_position_m, success_heading_deg)
         self._goal = self.goals.fixed.copy()
-        self._problem: Problem | None = None
+        self._problem: Problem | None = problem
         self._obs: np.ndarray | None = None
         self._steps = 0
 
@@ -163,7 +175,8 @@ class PushEnv(gym.Env):
         """The :class:`dexpush.problem.problem.Problem` of the current episode (its goal is drawn at reset):
         what a method's controller solves in this env (:meth:`dexpush.experiments.methods.Method.controller`)."""
         if self._problem is None or self._problem.goal != tuple(self._goal):
-            self._problem = Problem(self.shape, tuple(self._goal), self.task.obstacles,
+            weights = self._problem.weights if self._problem is not None else CostWeights()
+            self._problem = Problem(self.shape, tuple(self._goal), self.obstacles, weights,
                                     tolerance_m=self.goals.position_m, tolerance_deg=self.goals.heading_deg)
         return self._problem
 
@@ -216,7 +229,7 @@ class PushEnv(gym.Env):
             ax.add_patch(Polygon(poly, closed=True, fill=False, ec="#d62728", ls="--"))
         for poly in self.shape.footprint_world(x[:3]):
             ax.add_patch(Polygon(poly, closed=True, fc="0.6", ec="k"))
-        for cx, cy, r in self.task.obstacles:
+        for cx, cy, r in self.obstacles:
             ax.add_patch(Circle((cx, cy), r, color="#d62728", alpha=0.5))
         ax.add_patch(Circle(tuple(x[3:]), self.shape.pusher_radius, color="c", ec="k"))
         pts = np.array([x[:2], x[3:], self._goal[:2]])
