@@ -40,7 +40,15 @@ import numpy as np
 
 from dexpush.common.checks import check_positive
 from dexpush.model.kernel import kernel_point
-from dexpush.model.polygons import MAX_CORNERS, MAX_SHAPE_M, as_polygon, distance_to_polygons, inside_polygon, is_convex
+from dexpush.model.polygons import (
+    MAX_CORNERS,
+    MAX_SHAPE_M,
+    as_polygon,
+    circumscribed,
+    distance_to_polygons,
+    inside_polygon,
+    is_convex,
+)
 from dexpush.model.radial_table import (
     check_table_size,
     concave_corners,
@@ -227,6 +235,19 @@ class Shape:
         a = np.concatenate(self.polygons)
         b = np.concatenate([np.roll(p, -1, axis=0) for p in self.polygons])
         return a, b
+
+    def outline_edges(self, max_edges: int) -> tuple[np.ndarray, np.ndarray]:
+        """Edges (start, end) of an outline that contains the footprint with at most ``max_edges`` sides:
+        the footprint's own edges when it has no more, a circumscribed polygon
+        (:func:`dexpush.model.polygons.circumscribed`) for a convex footprint with more (an ellipse's
+        256), the footprint's edges otherwise. The cost's obstacle terms unroll every edge, so their
+        time and compile time grow with the count; a circumscribed outline only ever keeps the object
+        farther from an obstacle."""
+        a, b = self.edges
+        if len(a) <= max_edges or len(self.polygons) != 1 or not is_convex(self.polygons[0]):
+            return a, b
+        outline = circumscribed(self.polygons[0], max_edges)
+        return outline, np.roll(outline, -1, axis=0)
 
     @property
     def footprint_box(self) -> np.ndarray:

@@ -25,7 +25,11 @@ from dexpush.problem.obstacles import clearance_jit, collides_jit
 from dexpush.problem.scene import Scene, obstacle_array
 from dexpush.problem.weights import CostWeights
 
-__all__ = ["SUCCESS_HEADING_DEG", "SUCCESS_POSITION_M", "Problem", "is_success"]
+__all__ = ["COST_OUTLINE_EDGES", "SUCCESS_HEADING_DEG", "SUCCESS_POSITION_M", "Problem", "is_success"]
+
+#: the most edges of the footprint outline the cost's obstacle terms see (a convex footprint with more,
+#: an ellipse's 256, is replaced by a circumscribed polygon of this many; docs/performance.md)
+COST_OUTLINE_EDGES = 32
 
 #: the paper's success test (Sec. IV-B): position error below 8 mm ...
 SUCCESS_POSITION_M = 0.008
@@ -48,8 +52,10 @@ class Problem:
     position error below ``tolerance_m`` and a heading error below ``tolerance_deg``.
 
     Derived once, on construction: ``contour`` (the inflated contour's table), ``scene`` (the
-    cost's view, world frame), ``origin`` and ``local_scene`` (the same in the controller's frame,
-    whose origin is the goal's position: float32 keeps its resolution wherever the world frame is).
+    cost's view, world frame, with an outline of at most :data:`COST_OUTLINE_EDGES` edges),
+    ``origin`` and ``local_scene`` (the same in the controller's frame, whose origin is the goal's
+    position: float32 keeps its resolution wherever the world frame is), and ``judge_scene`` (the
+    footprint's own edges: what :meth:`collides` and :meth:`clearance` judge a trial by).
     """
 
     shape: Shape
@@ -62,6 +68,7 @@ class Problem:
     scene: Scene = field(init=False, repr=False)
     origin: np.ndarray = field(init=False, repr=False)
     local_scene: Scene = field(init=False, repr=False)
+    judge_scene: Scene = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.shape, Shape):
@@ -77,10 +84,11 @@ class Problem:
         put(self, "goal", tuple(float(v) for v in goal))
         put(self, "obstacles", tuple(tuple(float(v) for v in d) for d in discs))
         put(self, "contour", Contour.of(self.shape))
-        put(self, "scene", Scene.make(self.shape, goal, discs, self.weights))
+        put(self, "scene", Scene.make(self.shape, goal, discs, self.weights, COST_OUTLINE_EDGES))
         put(self, "origin", origin)
         put(self, "local_scene", Scene.make(self.shape, goal - origin, discs - origin * [1.0, 1.0, 0.0],
-                                            self.weights))
+                                            self.weights, COST_OUTLINE_EDGES))
+        put(self, "judge_scene", Scene.make(self.shape, goal, discs, self.weights))
 
     @property
     def has_obstacles(self) -> bool:
@@ -96,14 +104,14 @@ class Problem:
         x = jnp.asarray(states, jnp.float32)
         if not self.obstacles:
             return np.zeros(x.shape[:-1], bool)
-        return np.asarray(collides_jit(x, self.scene))
+        return np.asarray(collides_jit(x, self.judge_scene))
 
     def clearance(self, states: object) -> np.ndarray:
         """(...,) the smallest gap (m) between an obstacle and the object or the pusher; +inf without obstacles."""
         x = jnp.asarray(states, jnp.float32)
         if not self.obstacles:
             return np.full(x.shape[:-1], np.inf)
-        return np.asarray(clearance_jit(x, self.scene))
+        return np.asarray(clearance_jit(x, self.judge_scene))
 
     def with_weights(self, weights: CostWeights) -> Problem:
         """The same problem at the cost ``weights``."""

@@ -36,8 +36,10 @@ class Scene:
     margin: jnp.ndarray = None  # type: ignore[assignment]
 
     @staticmethod
-    def make(shape: Shape, goal: object, obstacles: object = (), weights: CostWeights | None = None) -> Scene:
-        """The cost's view of a task.
+    def make(shape: Shape, goal: object, obstacles: object = (), weights: CostWeights | None = None,
+             max_edges: int | None = None) -> Scene:
+        """The cost's view of a task; with ``max_edges``, the footprint's outline has at most that many
+        edges where the footprint is convex (:meth:`dexpush.model.shape.Shape.outline_edges`).
 
         The effective r_s is max(r_s, R_max + r_s_clearance), R_max the largest radius of
         the inflated contour. Table II's r_s = 0.2 m suits the paper's objects, but the
@@ -50,7 +52,7 @@ class Scene:
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ValueError(f"goal must be a finite pose (x, y, θ), got {goal!r}")
         obs = obstacle_array(obstacles)
-        a, b = shape.edges
+        a, b = shape.edges if max_edges is None else shape.outline_edges(max_edges)
         r_s = w.r_s if w.r_s_clearance is None else max(w.r_s, shape.bounding_radius + w.r_s_clearance)
         rho = np.zeros(0)
         if w.detour and len(obs):

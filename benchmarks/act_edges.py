@@ -1,0 +1,78 @@
+"""``PushingController.act`` against the footprint's edge count and the number of obstacles.
+
+    python benchmarks/act_edges.py [--edges 4,64,256,1024] [--obstacles 0,1,8] [--calls 200]
+
+For regular polygons of each edge count (radius 8 cm), the library's 10 × 6 cm ellipse (256
+footprint edges) and each obstacle count (discs of 3 cm along the way to the goal, off the
+straight line), a controller is reset on the first observation (that compiles: the time is
+printed) and then acts ``--calls`` times on exact frames from the model plant. Prints the edges
+the cost's obstacle terms see (at most ``dexpush.problem.problem.COST_OUTLINE_EDGES`` for a
+convex footprint), the compile time and the median and 99th percentile of ``act``. The last
+line printed is JSON. Configurations whose cost sees the same arrays (the same outline edge count
+and obstacle count) share one compiled program: their reset then costs nothing. Run it on an idle
+machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+import dexpush
+from dexpush.common.interfaces import Observation
+from dexpush.problem import Problem
+from dexpush.world.model_plant import ModelPlant
+
+
+def _shape(kind: str) -> dexpush.Shape:
+    if kind == "ellipse":
+        return dexpush.Shape.ellipse()
+    n = int(kind)
+    ang = 2 * np.pi * (np.arange(n) + 0.5) / n
+    return dexpush.Shape.polygon(0.08 * np.stack([np.cos(ang), np.sin(ang)], -1), name=f"{n}-gon")
+
+
+def _obstacles(m: int) -> tuple[tuple[float, float, float], ...]:
+    return tuple((0.25 + 0.12 * (k // 2), (0.2 if k % 2 else -0.2) + 0.05 * (k // 2), 0.03) for k in range(m))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--edges", default="4,64,256,1024")
+    ap.add_argument("--obstacles", default="0,1,8")
+    ap.add_argument("--calls", type=int, default=200)
+    args = ap.parse_args()
+    rows = []
+    for kind in [*args.edges.split(","), "ellipse"]:
+        shape = _shape(kind)
+        for m in (int(v) for v in args.obstacles.split(",")):
+            problem = Problem(shape, (0.6, 0.0, 0.0), _obstacles(m))
+            ctrl = dexpush.PushingController(problem, params=(25.0, 0.0, 0.0))
+            plant = ModelPlant(shape, params=(25.0, 0.0, 0.0))
+            r = float(shape.contour(np.array(np.pi))[0][0]) - 0.03
+            obs = plant.reset((0.0, 0.0, 0.0), (r, 0.0))
+            t0 = time.perf_counter()
+            ctrl.reset(obs.object_pose, obs.pusher_xy)
+            compile_s = time.perf_counter() - t0
+            ms = []
+            for k in range(args.calls):
+                t0 = time.perf_counter()
+                u = ctrl.act(Observation(obs.object_pose, obs.pusher_xy, k * 0.04))
+                ms.append((time.perf_counter() - t0) * 1e3)
+                obs = plant.step(u, 0.04)
+            row = {"shape": shape.name, "footprint_edges": len(shape.edges[0]),
+                   "cost_edges": int(problem.scene.edge_a.shape[0]), "obstacles": m,
+                   "compile_s": round(compile_s, 1), "act_ms_median": round(float(np.median(ms)), 2),
+                   "act_ms_p99": round(float(np.percentile(ms, 99)), 2)}
+            rows.append(row)
+            print(f"{row['shape']:>9} ({row['footprint_edges']:4d} edges, cost {row['cost_edges']:3d}), "
+                  f"{m} obstacles: compile {row['compile_s']:6.1f} s, act median {row['act_ms_median']:6.2f} ms, "
+                  f"p99 {row['act_ms_p99']:6.2f} ms", flush=True)
+    print(json.dumps(rows))
+
+
+if __name__ == "__main__":
+    main()
