@@ -146,3 +146,10 @@ def test_a_cli_summary_is_the_last_line_even_through_a_pipe(tmp_path) -> None:
                           timeout=300)
     lines = proc.stdout.splitlines()
     assert "\r" not in proc.stdout and json.loads(lines[-1])["steps"] == 30
+
+
+def test_run_episode_takes_a_method_object_that_is_not_registered() -> None:
+    from dexpush import run_episode
+
+    ep = run_episode("I", "rect", method=Toy(), max_steps=3)
+    assert ep.record.method == "toy" and ep.record.diagnostics == {"stall_resets": 3} and "toy" not in METHODS

@@ -15,7 +15,7 @@ import numpy as np
 
 from dexpush.common.interfaces import CONTROL_PERIOD_S
 from dexpush.common.se2 import pose_error
-from dexpush.experiments.methods import get_method
+from dexpush.experiments.methods import Method, get_method
 from dexpush.experiments.simulate import TrialResult
 from dexpush.model.cgvmm import LAMBDA_TRUE, MODE_NAMES, contact_solution
 from dexpush.problem.problem import Problem
@@ -115,12 +115,14 @@ class Condition(NamedTuple):
 
 
 def make_episode(problem: Problem, condition: Condition, result: TrialResult, lanes: int, plant: str = "model",
-                 sensor: SensorSettings | None = None, control_period: float = CONTROL_PERIOD_S) -> Episode:
+                 sensor: SensorSettings | None = None, control_period: float = CONTROL_PERIOD_S,
+                 method: Method | None = None) -> Episode:
     """The record (docs/conventions.md#benchmark-tasks) and trajectory of a finished trial of ``problem``.
 
     Contact modes are labelled with the C-GVMM at λ_true (for the trajectory figure); obstacle
     touches and clearance with the problem's obstacles; the method's own fields come from
-    :meth:`dexpush.experiments.methods.Method.diagnostics`; ``control_period`` converts steps to ``time_s``.
+    :meth:`dexpush.experiments.methods.Method.diagnostics` (``method``, or the registered one of
+    ``condition.method``); ``control_period`` converts steps to ``time_s``.
     """
     X, U = result.states, result.commands
     if len(U):
@@ -143,7 +145,7 @@ def make_episode(problem: Problem, condition: Condition, result: TrialResult, la
         planning_ms_median=round(float(np.median(ms)), 3), planning_ms_max=round(float(np.max(ms)), 3),
         lanes=int(lanes), plant=plant, sensor=sensor_label(sensor),
         clearance_m=round(float(gaps.min()), 5) if gaps is not None else None,
-        diagnostics=get_method(condition.method).diagnostics(result))
+        diagnostics=(method or get_method(condition.method)).diagnostics(result))
     return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(problem.goal),
                    np.asarray(problem.obstacles).reshape(-1, 3))
 

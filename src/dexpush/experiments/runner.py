@@ -207,4 +207,4 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
     condition = Condition(task.key, shape_name, params if isinstance(params, str) else "custom", method.name)
     return make_episode(problem, condition, result, lanes if batched(plant, method, sensor) else 1,
                         plant=plant_name(plant), sensor=world_sensor(plant, sensor, seed),
-                        control_period=settings.mppi.control_period)
+                        control_period=settings.mppi.control_period, method=method)
