@@ -68,13 +68,12 @@ def test_a_registered_method_runs_through_run(toy, tmp_path, capsys) -> None:
 
 
 def test_a_registered_method_runs_through_bench(toy, tmp_path, capsys) -> None:
-    code = main(["bench", "--tasks", "I,III", "--shapes", "rect", "--params", "known", "--methods", "toy,mppi",
+    code = main(["bench", "--tasks", "I,III", "--shapes", "rect", "--params", "known", "--methods", "toy",
                  "--seeds", "0", "--max-steps", "4", "--no-figures", "--workers", "1", "--quiet", "--out",
                  str(tmp_path)])
     assert code == 0
     names = sorted(p.stem for p in (tmp_path / "conditions").glob("*.json"))
-    # no obstacle support: the toy skips task III, MPPI runs it
-    assert names == ["III_rect_known_mppi", "I_rect_known_mppi", "I_rect_known_toy"]
+    assert names == ["I_rect_known_toy"]          # no obstacle support: the toy skips task III
     trial = json.loads((tmp_path / "conditions" / "I_rect_known_toy.json").read_text())["trials"][0]
     assert trial["method"] == "toy" and trial["steps"] == 4 and trial["lanes"] == 1
 

@@ -41,10 +41,12 @@ def test_the_ellipse_is_seen_by_the_cost_through_32_edges_within_a_millimetre() 
 
 
 def test_a_problem_plans_with_the_outline_and_judges_with_the_footprint() -> None:
-    shape = Shape.ellipse()
+    ang = 2 * np.pi * (np.arange(48) + 0.5) / 48
+    shape = Shape.polygon(0.1 * np.stack([np.cos(ang), np.sin(ang)], -1))     # 48 edges: the judge's compile is short
     problem = Problem(shape, (0.6, 0.0, 0.0), ((0.3, 0.0, 0.05),))
     assert problem.scene.edge_a.shape[0] == COST_OUTLINE_EDGES == problem.local_scene.edge_a.shape[0]
-    assert problem.judge_scene.edge_a.shape[0] == 256
-    # the object 0.5 mm from the disc along its major axis: clear by the footprint, not by the coarse outline
-    x = np.array([0.3 - 0.05 - 0.1 - 0.0005, 0.0, 0.0, -0.5, 0.0])
-    assert float(problem.clearance(x)) > 0.0 and not bool(problem.collides(x))
+    assert problem.judge_scene.edge_a.shape[0] == 48
+    # the object 0.1 mm from the disc: judged by the footprint itself
+    gap = 0.05 + 0.1 * np.cos(np.pi / 48) + 1e-4
+    x = np.array([0.3 - gap, 0.0, 0.0, -0.5, 0.0])
+    assert 0.0 < float(problem.clearance(x)) < 2e-4 and not bool(problem.collides(x))
