@@ -85,9 +85,7 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
         raise ValueError(f"workers must be >= 1, got {workers}")
     exact = sensor is None or sensor.perfect
     for m in map(get_method, methods):
-        if not exact and not m.cameras:
-            raise ValueError(f"the {m.name} method runs with exact observations only; drop {m.name} or the camera "
-                             "options")
+        m.check_sensing(exact)
         skipped = [t for t in task_keys if get_task(t).obstacles] if not m.obstacles else []
         if skipped and progress:
             print(f"{m.name}: no obstacle support, skipping task {', '.join(skipped)}", file=sys.stderr, flush=True)
@@ -109,8 +107,16 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
         try:
             with ProcessPoolExecutor(min(workers, len(groups)), mp_context=multiprocessing.get_context("spawn"),
                                      initializer=exit_with_parent, initargs=(os.getpid(),)) as ex:
-                futures = [ex.submit(_run_group, out, t, sh, **common, position=i % workers)
-                           for i, (t, sh) in enumerate(groups)]
+                # the workers start (on submit) with Ctrl-C ignored, until their initializer makes it end them
+                # quietly: a Ctrl-C while one still imports would otherwise print its traceback
+                main = threading.current_thread() is threading.main_thread()
+                previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+                try:
+                    futures = [ex.submit(_run_group, out, t, sh, **common, position=i % workers)
+                               for i, (t, sh) in enumerate(groups)]
+                finally:
+                    if main:
+                        signal.signal(signal.SIGINT, previous)
                 for f in futures:
                     f.result()
         finally:

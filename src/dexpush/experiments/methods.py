@@ -65,8 +65,13 @@ class Method:
         """Refuse, with a ``ValueError``, a problem or sensing this method does not support."""
         if problem.has_obstacles and not self.obstacles:
             raise ValueError(f"the {self.name} method has no obstacle support; use a problem without obstacles")
+        self.check_sensing(exact_observations)
+
+    def check_sensing(self, exact_observations: bool) -> None:
+        """Refuse, with a ``ValueError``, camera frames when this method takes exact observations only."""
         if not exact_observations and not self.cameras:
-            raise ValueError(f"the {self.name} method runs with exact observations only (no camera options)")
+            raise ValueError(f"the {self.name} method runs with exact observations only; drop it or the camera "
+                             "options")
 
 
 class MPPI(Method):

@@ -13,7 +13,7 @@ modules it imports know nothing of each other.
 from __future__ import annotations
 
 from dexpush.common.interfaces import Plant
-from dexpush.experiments.methods import get_method
+from dexpush.experiments.methods import Method, get_method
 from dexpush.model.cgvmm import LAMBDA_TRUE
 from dexpush.model.shape import Shape
 from dexpush.world.model_plant import ModelPlant
@@ -54,7 +54,7 @@ def world_sensor(plant: object, sensor: SensorSettings | None, seed: int) -> Sen
     return SensorSettings.randomized(seed) if plant == "physics-random" else sensor
 
 
-def check_condition(params: str, method: str) -> None:
+def check_condition(params: str, method: str | Method) -> None:
     """Reject an unknown parameter scenario or method name with the list of valid ones."""
     if params not in PARAMS:
         raise ValueError(f"unknown params {params!r}; choose 'known' or 'unknown'")

@@ -32,7 +32,7 @@ from dexpush.common.progress import progress_bar
 from dexpush.control.controller import ControllerSettings
 from dexpush.experiments.methods import Method, get_method
 from dexpush.experiments.records import Condition, Episode, make_episode
-from dexpush.experiments.registry import PARAMS, PLANTS, make_plant, make_shape, world_sensor
+from dexpush.experiments.registry import PARAMS, PLANTS, check_condition, make_plant, make_shape, world_sensor
 from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task
 from dexpush.experiments.simulate import ESTIMATOR_COUNTERS, Starts, TrialResult, TrialSpec, simulate
 from dexpush.model.shape import Shape
@@ -97,8 +97,9 @@ def run_loop(plant: Plant, controller: Controller, problem: Problem, *args: obje
     frame = camera.reset(object_pose, pusher_xy)
     frame_period = 1.0 / sensor.rate_hz if sensor.rate_hz else control_period
     controller.reset(frame.object_pose, frame.pusher_xy)     # slow preparation happens before the clock
-    states, commands, lam, ms = [camera.state], [], [], []
-    success = bool(problem.success(camera.state[:3]))
+    x = camera.state                                          # the true state, checked once per step
+    states, commands, lam, ms = [x], [], [], []
+    success = bool(problem.success(x[:3]))
     bar = progress_bar(max_steps, desc, "step", progress)
     while not success and len(commands) < max_steps and not getattr(controller, "gave_up", False):
         t0 = time.perf_counter()
@@ -106,11 +107,12 @@ def run_loop(plant: Plant, controller: Controller, problem: Problem, *args: obje
         ms.append((time.perf_counter() - t0) * 1e3)
         lam.append(np.asarray(getattr(controller, "params", np.full(3, np.nan)), dtype=np.float64))
         frame = camera.step(u, control_period)
+        x = camera.state
         commands.append(u)
-        states.append(camera.state)
-        success = bool(problem.success(camera.state[:3]))
+        states.append(x)
+        success = bool(problem.success(x[:3]))
         bar.update(1)
-        if problem.has_obstacles and bool(problem.collides(camera.state)):
+        if problem.has_obstacles and bool(problem.collides(x)):
             success = False          # touching the obstacle fails the trial (conventions.md#benchmark-tasks)
             break
     bar.close()
@@ -131,8 +133,7 @@ def trial_spec(params: str | object, method: str | Method, seed: int) -> TrialSp
     ``unknown``) or the λ_pred = [β, x_bf, y_bf] the controller starts from."""
     method = get_method(method)
     if isinstance(params, str):
-        if params not in PARAMS:
-            raise ValueError(f"unknown params {params!r}; choose 'known' or 'unknown'")
+        check_condition(params, method)
         lam = PARAMS[params]
     else:
         vec = checked_vector("params", params, 3)
