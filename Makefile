@@ -11,7 +11,7 @@ STAMP  := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e ".[dev]"
+	$(BIN)/pip install --quiet -e ".[dev,camera]"
 	touch $(STAMP)
 
 demo: $(STAMP)
@@ -28,6 +28,7 @@ examples: $(STAMP)
 	$(BIN)/python examples/own_object.py --out out/examples
 	$(BIN)/python examples/gym_env.py
 	$(BIN)/python examples/robot_loop.py --out out/examples
+	$(BIN)/python examples/camera_loop.py --out out/examples
 	$(BIN)/python examples/read_results.py docs/results/benchmark --out out/examples
 
 bench: $(STAMP)

@@ -175,14 +175,20 @@ def test_tables_agree_with_records(tmp_path: Path) -> None:
     md = Path(files["markdown"]).read_text()
     assert "| I | rect | known | mppi | 2/3 (67 %) | 0.800 ± 0.100 |" in md
     assert "| 2.0 / 9 | – | – | 1.3 |" in md and "| I | rect | known | gcs | 1/1 (100 %) |" in md
-    assert md.strip().endswith("| 2.0 / 9 | 1.5 / 1.5 | 2.0 | – | – |")
+    assert md.strip().endswith("| 2.0 / 9 | 1.5 / 1.5 | 2.0 | – | – | – |")
     lines = Path(files["csv"]).read_text().strip().splitlines()
     assert len(lines) == 5 and lines[0].endswith(",diagnostics") and lines[1].endswith(',"{""stall_resets"": 0}"')
     # Task III records carry the trial's least clearance: the table gives the least and the median (mm)
     task3 = [dict(r, task="III", clearance_m=g) for r, g in zip(records, (0.012, -0.001, 0.03), strict=True)]
     assert summarize(task3)["clearance_m"] == [-0.001, 0.012]
     write_tables(tmp_path, task3, {"command": "test", "date": "today", "machine": "here"})
-    assert Path(files["markdown"]).read_text().strip().endswith("| 1.3 | -1.0 / 12.0 |")
+    assert Path(files["markdown"]).read_text().strip().endswith("| 1.3 | -1.0 / 12.0 | – |")
+    # a camera's records count its frames: the table gives the share the perception withheld
+    seen = [dict(r, frames={"captured": 100, "dropped": 0, "withheld": w, "delivered": 100 - w})
+            for r, w in zip(records, (0, 6, 3), strict=True)]
+    assert summarize(seen)["frames_withheld"] == pytest.approx(0.03) and summarize(records)["frames_withheld"] is None
+    write_tables(tmp_path, seen, {"command": "test", "date": "today", "machine": "here"})
+    assert Path(files["markdown"]).read_text().strip().endswith("| 1.3 | – | 3.0 % |")
 
 
 def test_records_of_0_3_are_read_with_their_method_fields_as_diagnostics() -> None:

@@ -9,7 +9,8 @@
 * **observation** (float32, 8): object pose [x_b, y_b, θ], pusher position [x_c, y_c] and
   goal pose [x_g, y_g, θ_g]; headings wrapped to [−π, π], positions within ±10 m. With a
   realistic ``sensor`` it is the newest frame that arrived (the previous one again when
-  none did).
+  none did); ``sensor=RenderSettings(...)`` (``dexpush.world.rendered_camera``, the physics
+  plants) makes the frames from rendered images of ArUco markers.
 * **action** (float32, 2): the pusher velocity [v_x, v_y] in m/s, within ±v_max/√2 per axis
   (eq. 10); actions outside are clipped. Each step holds it for one control period
   (0.04 s, 25 Hz, by default).
@@ -47,7 +48,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from dexpush.common.interfaces import Plant, check_plant
+from dexpush.common.interfaces import Plant, Sensor, check_plant
 from dexpush.common.se2 import wrap_angle
 from dexpush.control.mppi import MPPISettings
 from dexpush.experiments.registry import PLANTS, make_plant, make_shape
@@ -57,7 +58,7 @@ from dexpush.model.shape import Shape
 from dexpush.problem.problem import SUCCESS_HEADING_DEG, SUCCESS_POSITION_M, Problem, is_success
 from dexpush.problem.weights import CostWeights
 from dexpush.world.model_plant import ModelPlant
-from dexpush.world.sensing import Camera, SensorSettings
+from dexpush.world.sensing import SensorSettings
 
 __all__ = ["PushEnv", "VectorPushEnv"]
 
@@ -128,7 +129,7 @@ class PushEnv(gym.Env):
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 25}
 
     def __init__(self, task: str = "I", shape: str | Shape = "rect", plant: str | Plant = "model",
-                 sensor: SensorSettings | None = None, max_steps: int = MAX_STEPS,
+                 sensor: Sensor | None = None, max_steps: int = MAX_STEPS,
                  render_mode: str | None = None, mppi: MPPISettings | None = None, goal: object = None,
                  goal_range: object = ((-0.5, 0.5), (-0.5, 0.5)), success_position_m: float = SUCCESS_POSITION_M,
                  success_heading_deg: float = SUCCESS_HEADING_DEG, problem: Problem | None = None) -> None:
@@ -155,7 +156,7 @@ class PushEnv(gym.Env):
         self.render_mode = render_mode
         self.max_steps = int(max_steps)
         world = make_plant(plant, self.shape) if isinstance(plant, str) else check_plant(plant)
-        self.camera = Camera(world, sensor or SensorSettings())
+        self.camera = (sensor or SensorSettings()).camera(world, self.obstacles)
         self._c = (problem.weights if problem is not None else CostWeights()).c
         if mppi is not None and not isinstance(mppi, MPPISettings):
             raise ValueError(f"mppi must be a dexpush.MPPISettings, got {mppi!r}")

@@ -4,6 +4,7 @@ of its parsed arguments that writes its files and returns the one-line JSON summ
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import sys
@@ -77,7 +78,15 @@ def effective_config(args: argparse.Namespace, run_flags: bool = True):
 
 
 def cmd_run(args: argparse.Namespace) -> dict:
-    from dexpush.cli.config import build_plant, build_task, check_run_config, lambda_pred, load_shape, to_toml
+    from dexpush.cli.config import (
+        build_plant,
+        build_sensor,
+        build_task,
+        check_run_config,
+        lambda_pred,
+        load_shape,
+        to_toml,
+    )
     from dexpush.experiments.runner import run_episode
     from dexpush.model.cgvmm import LAMBDA_TRUE
 
@@ -94,7 +103,7 @@ def cmd_run(args: argparse.Namespace) -> dict:
         print(f"dexpush: {shape.name}: reference point (the pose the goal refers to) at "
               f"({shape.origin[0]:.4f}, {shape.origin[1]:.4f}) m in the shape file's frame", file=sys.stderr)
     task = build_task(run)
-    sensor = config.sensor if config.sensor != type(config.sensor)() else None
+    sensor = build_sensor(config)
     params = run.params if run.lambda_pred is None else lambda_pred(run)
     settings = config.controller
     episode = run_episode(task, shape, params=params, method=run.method, seed=run.seed,
@@ -233,7 +242,7 @@ def cmd_bench(args: argparse.Namespace) -> dict:
     import datetime
     import platform
 
-    from dexpush.cli.config import check_bench_config, to_toml
+    from dexpush.cli.config import build_sensor, check_bench_config, to_toml
     from dexpush.experiments.benchmark import run_benchmark
     from dexpush.experiments.results_folder import folder_records
     from dexpush.experiments.scenarios import get_task
@@ -253,13 +262,16 @@ def cmd_bench(args: argparse.Namespace) -> dict:
         args.plant = "physics-random"
     config = effective_config(args, run_flags=False)
     if getattr(args, "print_config", False):
-        sys.stdout.write(to_toml(config, tables=("controller", "sensor")))
+        sys.stdout.write(to_toml(config, tables=("controller", "sensor", "render")))
         return {}
     check_bench_config(config, args)
+    if config.run.camera == "rendered" and args.plant == "model":
+        raise ValueError("--camera rendered sees the MuJoCo plant: add --plant physics (or --randomize)")
     t0 = time.perf_counter()
     records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
                             lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures,
-                            workers=args.workers, plant=args.plant, sensor=config.sensor, settings=config.controller)
+                            workers=args.workers, plant=args.plant, sensor=build_sensor(config),
+                            settings=config.controller)
     wall = time.perf_counter() - t0
     seed_text = f"--seeds {args.seeds_text}" if args.seeds is not None else f"--trials {args.trials}"
     meta = {"command": f"dexpush bench --tasks {args.tasks} --shapes {args.shapes} --params {args.params} "
@@ -280,3 +292,57 @@ def cmd_bench(args: argparse.Namespace) -> dict:
     return {"conditions": n_cond, "trials": len(records), "successes": ok,
             "success_rate": round(ok / len(records), 4) if records else None, "wall_s": round(wall, 1),
             "files": files}
+
+
+def cmd_calibrate(args: argparse.Namespace) -> dict:
+    """``dexpush calibrate``: a camera's intrinsics (unless given) and its pose on the table from images
+    of a board, written to a camera file (merged by camera name into an existing one)."""
+    from dexpush.perception.calibration import calibrate_extrinsics, calibrate_intrinsics, read_board_file
+    from dexpush.perception.camera_file import read_camera_file, write_camera_file
+    from dexpush.perception.detect import require_cv2
+
+    cv2 = require_cv2()
+    board = read_board_file(args.board)
+    if args.board_image:
+        from dexpush.common.files import atomic_path
+
+        with atomic_path(args.board_image) as tmp:
+            if not cv2.imwrite(str(tmp), board.image()):
+                raise OSError(f"cannot write {args.board_image} (give a .png file)")
+        if not args.images:
+            return {"board_image": str(args.board_image)}
+    if not args.images:
+        raise ValueError("give the calibration images: the first with the board flat at its [board] pose")
+    images = []
+    for path in args.images:
+        img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+        if img is None:
+            raise ValueError(f"cannot read image {path} (missing, or not an image file)")
+        images.append(img)
+    intrinsic_rms = None
+    if args.intrinsics:
+        known = read_camera_file(args.intrinsics)
+        match = [c for c in known if c.name == args.name] or known[:1]
+        intrinsics = match[0]
+        if (intrinsics.height, intrinsics.width) != images[0].shape:
+            raise ValueError(f"camera file {args.intrinsics}: {intrinsics.width}×{intrinsics.height} pixels, but "
+                             f"{args.images[0]} is {images[0].shape[1]}×{images[0].shape[0]}")
+    elif len(images) >= 3:
+        intrinsics = calibrate_intrinsics(images, board, args.name)
+        intrinsic_rms = intrinsics.reprojection_error_px
+    else:
+        raise ValueError("give --intrinsics (a camera file from the maker or an earlier calibration), or 3 or more "
+                         "images of the board at varied angles to estimate them")
+    intrinsics = dataclasses.replace(intrinsics, name=args.name)
+    camera = calibrate_extrinsics(images[0], intrinsics, board)
+    out = Path(args.out)
+    cameras = [c for c in (read_camera_file(out) if out.exists() else []) if c.name != args.name] + [camera]
+    write_camera_file(out, cameras, f"written by dexpush calibrate --board {args.board} ({len(images)} images)")
+    if not args.quiet and camera.reprojection_error_px > 1.0:
+        print(f"dexpush: note: the reprojection error is {camera.reprojection_error_px:.2f} px (expect < 0.5): check "
+              "the board's size and pose in the board file, and the intrinsics", file=sys.stderr)
+    return {"camera": camera.name, "camera_file": str(out), "images": len(images),
+            "reprojection_error_px": round(camera.reprojection_error_px, 4),
+            "intrinsic_rms_px": None if intrinsic_rms is None else round(intrinsic_rms, 4),
+            "position_m": [round(float(v), 5) for v in camera.position],
+            "fx": round(camera.fx, 3), "fy": round(camera.fy, 3), "cx": round(camera.cx, 3), "cy": round(camera.cy, 3)}

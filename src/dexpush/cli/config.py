@@ -18,7 +18,8 @@ file, defaults included, so the easiest start is to save that and edit it::
     [controller.mppi]           # MPPISettings (K = num_samples, N_p = horizon, v_max, ...)
     [controller.weights]        # CostWeights (eq. 9)
     [controller.ukf]            # UKFSettings
-    [sensor]                    # SensorSettings (what the controller sees)
+    [sensor]                    # SensorSettings (what the controller sees: the noise-model camera)
+    [render]                    # RenderSettings (the rendered camera: [run] camera = "rendered")
     [physics]                   # PhysicsSettings (the MuJoCo plant)
 
 Command-line flags override the file. Unknown keys are errors (with the allowed ones).
@@ -45,14 +46,21 @@ from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C
 from dexpush.model.shape import Shape
 from dexpush.world.model_plant import ModelPlant
 from dexpush.world.physics_plant import PhysicsPlant, PhysicsSettings
+from dexpush.world.rendered_camera import RenderSettings
 from dexpush.world.sensing import SensorSettings
 
+#: the cameras a run can see through: the noise model of the true pose, or rendered images
+CAMERAS = ("noise", "rendered")
+
 __all__ = [
+    "CAMERAS",
     "RunConfig",
     "RunSettings",
     "build_plant",
+    "build_sensor",
     "build_task",
-    "check_bench_config", "check_run_config",
+    "check_bench_config",
+    "check_run_config",
     "default_config",
     "lambda_pred",
     "load_config",
@@ -78,6 +86,7 @@ class RunSettings:
     true_params: tuple[float, float, float] | None = None   #: model plant's λ_true; None: [25, −0.01, 0.02]
     mu: float | None = None        #: model plant's μ_c; None: 0.3
     max_steps: int = MAX_STEPS     #: N_max
+    camera: str = "noise"          #: noise: [sensor]'s noise-model camera; rendered: images ([render], physics plants)
 
     def __post_init__(self) -> None:
         get_task(self.task)
@@ -102,6 +111,8 @@ class RunSettings:
                                  "[physics] pusher_friction / table_friction")
         if isinstance(self.seed, bool) or int(self.seed) != self.seed or not 0 <= self.seed < 2**32:
             raise ValueError(f"seed must be a whole number in [0, 2³²), got {self.seed!r}")
+        if self.camera not in CAMERAS:
+            raise ValueError(f"unknown camera {self.camera!r}; choose one of {', '.join(CAMERAS)}")
         if isinstance(self.max_steps, bool) or int(self.max_steps) != self.max_steps or self.max_steps < 1:
             raise ValueError(f"max_steps must be a whole number >= 1, got {self.max_steps!r}")
 
@@ -113,6 +124,7 @@ class RunConfig:
     run: RunSettings = field(default_factory=RunSettings)
     controller: ControllerSettings = field(default_factory=ControllerSettings)
     sensor: SensorSettings = field(default_factory=SensorSettings)
+    render: RenderSettings = field(default_factory=RenderSettings)
     physics: PhysicsSettings = field(default_factory=PhysicsSettings)
 
     def replace(self, **sections: dict[str, Any]) -> RunConfig:
@@ -192,8 +204,29 @@ def build_plant(config: RunConfig, shape: Shape) -> str | Plant:
     return run.plant
 
 
+def build_sensor(config: RunConfig) -> SensorSettings | RenderSettings | None:
+    """What the run's controller sees: None (the exact state), the noise-model camera ([sensor]) or the
+    rendered camera ([render]; its markers from the shape file's [markers] table when it has one)."""
+    if config.run.camera == "rendered":
+        render = config.render
+        shape = config.run.shape
+        if not render.marker_file and shape.endswith(".toml") and "markers" in read_toml(shape, "shape file"):
+            render = dataclasses.replace(render, marker_file=shape)
+        return render
+    return config.sensor if config.sensor != SensorSettings() else None
+
+
 def check_run_config(config: RunConfig) -> None:
-    """Settings of another plant than the run's are refused, not dropped."""
+    """Settings of another plant or camera than the run's are refused, not dropped."""
+    if config.run.camera == "rendered" and config.run.plant == "model":
+        raise ValueError("the rendered camera sees the MuJoCo plant: use it with plant = \"physics\" "
+                         "(--plant physics) or \"physics-random\"")
+    if config.run.camera != "rendered" and config.render != RenderSettings():
+        raise ValueError("[render] sets the rendered camera, but the run's camera is the noise model: set [run] "
+                         "camera = \"rendered\" (or --camera rendered), or remove the [render] table")
+    if config.run.camera == "rendered" and config.sensor != SensorSettings():
+        raise ValueError("[sensor] sets the noise-model camera, but the run's camera is rendered: its rate, "
+                         "latency and drops are [render] rate_hz, latency_s, drop_prob; remove [sensor]")
     if config.run.plant != "physics" and config.physics != PhysicsSettings():
         raise ValueError(f"[physics] sets the physics plant, but the run's plant is {config.run.plant!r}: set "
                          "[run] plant = \"physics\" (or --plant physics), or remove the [physics] table")
@@ -202,7 +235,8 @@ def check_run_config(config: RunConfig) -> None:
 def check_bench_config(config: RunConfig, args: object) -> None:
     """``dexpush bench`` takes its conditions from its flags and runs the named plants with their own
     worlds: a configuration's non-default [run] or [physics] table is refused, not dropped."""
-    if config.run != RunSettings():
+    check_run_config(dataclasses.replace(config, run=dataclasses.replace(config.run, plant="physics")))
+    if dataclasses.replace(config.run, camera="noise") != RunSettings():
         raise ValueError("the [run] table says what one `dexpush run` pushes; `dexpush bench` takes that from "
                          "--tasks, --shapes, --params, --methods and --seeds: remove [run] from the file")
     if config.physics != PhysicsSettings():

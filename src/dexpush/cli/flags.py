@@ -16,10 +16,12 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 from typing import Any
 
 from dexpush.cli.arguments import at_least_one, nonnegative_float, positive_float, positive_int, positive_or_off
 from dexpush.cli.settings_file import merge, to_dict
+from dexpush.world.rendered_camera import SETUPS
 from dexpush.world.sensing import MAX_CAMERA_HZ, SensorSettings
 
 __all__ = ["add_camera_flags", "add_planner_flags", "camera_overrides", "planner_overrides"]
@@ -112,12 +114,20 @@ _CAMERA = {
 
 
 def add_camera_flags(parser: argparse.ArgumentParser) -> None:
-    """The camera flags, each defaulting to None (not given: the configuration's [sensor] value)."""
-    g = parser.add_argument_group("sensing (what the controller sees; each flag sets one key of [sensor]; "
-                                  "default: the exact state every step)")
-    g.add_argument("--camera", choices=["exact", "realistic"], default=None,
+    """The camera flags, each defaulting to None (not given: the configuration's [sensor] or [render] value)."""
+    g = parser.add_argument_group("sensing (what the controller sees; each flag sets one key of [sensor], or of "
+                                  "[render] with --camera rendered; default: the exact state every step)")
+    g.add_argument("--camera", choices=["exact", "realistic", "rendered"], default=None,
                    help="exact (default): the true state every step; realistic: 15 Hz, 1 mm / 0.5° noise, "
-                        "60 ms latency, 5%% dropped frames (the other camera flags then change one of these)")
+                        "60 ms latency, 5%% dropped frames (the other camera flags then change one of these); "
+                        "rendered: MuJoCo images → ArUco markers → poses, 15 Hz, 60 ms (the physics plants; "
+                        "needs dexpush[camera])")
+    g.add_argument("--camera-setup", choices=list(SETUPS), default=None,
+                   help="with --camera rendered: one camera above the table, one oblique from the side away "
+                        "from the robot, or two obliques (default oblique)")
+    g.add_argument("--camera-file", default=None, metavar="CAMERA.toml",
+                   help="with --camera rendered: the tracker believes these cameras (from `dexpush calibrate`) "
+                        "instead of the true ones")
     g.add_argument("--noise-mm", type=nonnegative_float, default=None, help="object position noise σ (mm)")
     g.add_argument("--noise-deg", type=nonnegative_float, default=None, help="object heading noise σ (deg)")
     g.add_argument("--camera-hz", type=positive_float, default=None,
@@ -127,14 +137,36 @@ def add_camera_flags(parser: argparse.ArgumentParser) -> None:
 
 
 def camera_overrides(args: argparse.Namespace) -> tuple[dict, str]:
-    """The ``[sensor]`` overrides the camera flags in ``args`` make, and the flags as text."""
+    """The ``[sensor]`` (or, with ``--camera rendered``, ``[run] camera`` and ``[render]``) overrides the
+    camera flags in ``args`` make, and the flags as text."""
     given = {flag: getattr(args, dest, None) for flag, (dest, _, _) in _CAMERA.items()}
     given = {k: v for k, v in given.items() if v is not None}
     camera = getattr(args, "camera", None)
+    setup = getattr(args, "camera_setup", None)
+    camera_file = getattr(args, "camera_file", None)
     if camera == "exact" and given:
         raise ValueError(f"--camera exact is the true state every step; it contradicts {', '.join(given)}")
-    over: dict[str, Any] = {}
+    if (setup is not None or camera_file is not None) and camera != "rendered":
+        raise ValueError(f"{'--camera-setup' if setup else '--camera-file'} is for the rendered cameras: add "
+                         "--camera rendered")
     text = ""
+    if camera == "rendered":
+        noise = [flag for flag in given if flag in ("--noise-mm", "--noise-deg")]
+        if noise:
+            raise ValueError(f"{noise[0]} sets the noise model's noise; rendered images have their own errors")
+        over: dict[str, Any] = {}
+        text = " --camera rendered" + (f" --camera-setup {setup}" if setup else "")
+        if setup:
+            over["setup"] = setup
+        if camera_file:
+            over["camera_file"] = str(Path(camera_file).resolve())
+            text += f" --camera-file {camera_file}"
+        for flag, value in given.items():
+            _, key, unit = _CAMERA[flag]
+            over[key] = value * unit
+            text += _text(flag, value)
+        return {"run": {"camera": "rendered"}, **({"render": over} if over else {})}, text
+    over = {}
     if camera is not None:
         over = to_dict(SensorSettings.realistic() if camera == "realistic" else SensorSettings())
         over.pop("seed")

@@ -6,6 +6,7 @@
     dexpush bench --tasks I --shapes tee --params unknown --methods mppi --seeds 7   re-run one trial
     dexpush validate-mit DATA_DIR [--out DIR] [--online]  C-GVMM (and the online UKF) against recorded MIT pushes
     dexpush fit LOG --shape FILE.toml        fit λ (and μ_c) to your own recorded pushes
+    dexpush calibrate --board B.toml IMG...  a camera's pose (and intrinsics) from images of a board
 
 Every command writes its files under ``--out`` and prints a one-line JSON summary last.
 """
@@ -21,7 +22,7 @@ import warnings
 from collections.abc import Sequence
 
 from dexpush.cli.arguments import floats, out_folder, positive_float, positive_int, seed, seed_list
-from dexpush.cli.commands import cmd_bench, cmd_fit, cmd_run, cmd_validate
+from dexpush.cli.commands import cmd_bench, cmd_calibrate, cmd_fit, cmd_run, cmd_validate
 from dexpush.cli.flags import add_camera_flags, add_planner_flags
 from dexpush.experiments.benchmark import BENCH_LANES
 from dexpush.experiments.methods import method_names
@@ -170,6 +171,22 @@ def build_parser() -> argparse.ArgumentParser:
                      help="output folder for fit.json and fit.png (default out/fit)")
     fit.add_argument("--quiet", action="store_true", help="no report on stderr")
     fit.set_defaults(func=cmd_fit)
+
+    cal = sub.add_parser("calibrate", help="a camera's pose on the table (and its intrinsics) from images of a board",
+                         description="Calibrate a camera from images of a ChArUco board or a marker (the [board] "
+                                     "table of a TOML file): the first image shows the board flat on the table at "
+                                     "its pose; with no --intrinsics, 3 or more images (the board held at varied "
+                                     "angles) give them too. Writes (or updates, by camera name) a camera file that "
+                                     "`--camera-file` reads. Needs dexpush[camera]. See docs/perception.md.")
+    cal.add_argument("images", nargs="*", help="image files (PNG, JPEG, ...); the first: the board on the table")
+    cal.add_argument("--board", required=True, metavar="FILE.toml", help="the board: kind, squares, sizes, pose")
+    cal.add_argument("--intrinsics", metavar="CAMERA.toml", default=None,
+                     help="take the intrinsics from this camera file (the camera named --name, else its first)")
+    cal.add_argument("--name", default="camera", help="the camera's name in the file (default camera)")
+    cal.add_argument("--board-image", metavar="FILE.png", default=None, help="also write the printable board here")
+    cal.add_argument("--out", default="camera.toml", help="the camera file to write or update (default camera.toml)")
+    cal.add_argument("--quiet", action="store_true", help="no notes on stderr")
+    cal.set_defaults(func=cmd_calibrate)
     return p
 
 
@@ -217,7 +234,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         warnings.showwarning = _note
         try:
             summary = args.func(args)
-        except (ValueError, OSError) as exc:  # bad input, or a path that cannot be used: one line, no traceback
+        except (ValueError, OSError, ImportError) as exc:  # bad input, a path or a system that cannot be used,
+            # a missing optional extra: one line, no traceback
             print(f"dexpush: error: {exc}", file=sys.stderr)
             return 2
         except KeyboardInterrupt:

@@ -14,11 +14,11 @@ your own). These are structural protocols: nothing has to inherit from them.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["CONTROL_PERIOD_S", "Controller", "Frame", "Observation", "Plant", "check_plant"]
+__all__ = ["CONTROL_PERIOD_S", "Controller", "Frame", "Observation", "Plant", "Sensor", "check_plant"]
 
 #: T, the control period (s) of the paper's loop (25 Hz): how long a command is held unless told otherwise
 CONTROL_PERIOD_S = 0.04
@@ -84,6 +84,27 @@ class Controller(Protocol):
     def reset(self, object_pose: object | None = None, pusher_xy: object | None = None) -> None: ...
 
     def act(self, frame: Observation | None, frame_period: float | None = None) -> np.ndarray: ...
+
+
+@runtime_checkable
+class Sensor(Protocol):
+    """Settings of what a controller sees of a plant (a frozen dataclass: the runner reseeds it per trial with
+    ``dataclasses.replace(sensor, seed=...)``): ``camera(plant, obstacles)`` wraps the plant in a camera
+    (``reset``, ``step``, ``state``, ``counts``; ``dexpush.world.sensing.Camera``); ``rate_hz`` is its frame
+    rate (None: every control period); ``perfect`` says it delivers the exact state every period;
+    ``describe()`` labels records. ``dexpush.world.sensing.SensorSettings`` (the noise model) and
+    ``dexpush.world.rendered_camera.RenderSettings`` (rendered images) are sensors.
+    """
+
+    rate_hz: float | None
+    seed: int
+
+    @property
+    def perfect(self) -> bool: ...
+
+    def camera(self, plant: Plant, obstacles: object = ()) -> Any: ...
+
+    def describe(self) -> str: ...
 
 
 def check_plant(plant: object) -> Plant:

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from dexpush.common.files import write_json_atomic
+from dexpush.common.interfaces import Sensor
 from dexpush.common.progress import progress_bar
 from dexpush.control.controller import ControllerSettings
 from dexpush.experiments.methods import get_method
@@ -44,7 +45,6 @@ from dexpush.experiments.results_folder import (
 from dexpush.experiments.runner import batched, run_trial, trial_spec
 from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task
 from dexpush.experiments.simulate import TrialResult, TrialSpec, simulate
-from dexpush.world.sensing import SensorSettings
 
 __all__ = ["BENCH_LANES", "exit_with_parent", "run_benchmark"]
 
@@ -55,7 +55,7 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
                   methods: Sequence[str], seeds: Sequence[int], max_steps: int = MAX_STEPS,
                   lanes: int = BENCH_LANES, settings: ControllerSettings | None = None,
                   progress: bool = True, figures: bool = True, workers: int = 1, plant: str = "model",
-                  sensor: SensorSettings | None = None) -> list[dict]:
+                  sensor: Sensor | None = None) -> list[dict]:
     """Run the trials of every condition (task × shape × params × method), resumably.
 
     Each condition has its file ``out/conditions/<task>_<shape>_<params>_<method>.json``,
@@ -168,7 +168,7 @@ def _methods_for(task: Task, methods: Sequence[str]) -> tuple[str, ...]:
 
 def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, ...], methods: tuple[str, ...],
                seeds: tuple[int, ...], max_steps: int, lanes: int, settings: ControllerSettings | None,
-               progress: bool, figures: bool, plant: str, sensor: SensorSettings | None, position: int = 0) -> None:
+               progress: bool, figures: bool, plant: str, sensor: Sensor | None, position: int = 0) -> None:
     """The conditions of one task and shape (see :func:`run_benchmark`)."""
     task, shape = get_task(task_key), make_shape(shape_name)
     settings = settings or ControllerSettings()

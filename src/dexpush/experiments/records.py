@@ -13,13 +13,12 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from dexpush.common.interfaces import CONTROL_PERIOD_S
+from dexpush.common.interfaces import CONTROL_PERIOD_S, Sensor
 from dexpush.common.se2 import pose_error
 from dexpush.experiments.methods import Method, get_method
 from dexpush.experiments.simulate import TrialResult
 from dexpush.model.cgvmm import LAMBDA_TRUE, MODE_NAMES, contact_solution
 from dexpush.problem.problem import Problem
-from dexpush.world.sensing import SensorSettings
 
 __all__ = ["CONDITION_KEYS", "Condition", "Episode", "EpisodeRecord", "condition_name", "make_episode", "sensor_label",
            "summarize"]
@@ -72,6 +71,9 @@ class EpisodeRecord:
     #: MPPI's ``stall_resets``, the UKF's ``rejected_frames``, ``estimator_updates`` and ``params_estimate``,
     #: GCS's ``offline_plan_s`` and ``replans``
     diagnostics: dict[str, Any] = field(default_factory=dict)
+    #: what the camera did, when there was one (:meth:`dexpush.world.sensing.Camera.counts`): frames captured,
+    #: dropped, withheld by the perception (by reason, for a rendered camera) and delivered
+    frames: dict[str, int] | None = None
 
 
 @dataclass
@@ -95,13 +97,9 @@ def _path_length(xy: np.ndarray) -> float:
     return float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=-1)))
 
 
-def sensor_label(sensor: SensorSettings | None) -> str:
-    """A short human-readable description of what the controller saw."""
-    if sensor is None or sensor.perfect:
-        return "exact"
-    rate = f"{sensor.rate_hz:g} Hz" if sensor.rate_hz else "every step"
-    return (f"{rate}, noise {sensor.pos_std_m * 1e3:g} mm / {np.degrees(sensor.heading_std_rad):.2g}°, "
-            f"latency {sensor.latency_s * 1e3:g} ms, drops {sensor.drop_prob:.0%}")
+def sensor_label(sensor: Sensor | None) -> str:
+    """A short human-readable description of what the controller saw (the sensor's ``describe()``)."""
+    return "exact" if sensor is None else sensor.describe()
 
 
 class Condition(NamedTuple):
@@ -115,7 +113,7 @@ class Condition(NamedTuple):
 
 
 def make_episode(problem: Problem, condition: Condition, result: TrialResult, lanes: int, plant: str = "model",
-                 sensor: SensorSettings | None = None, control_period: float = CONTROL_PERIOD_S,
+                 sensor: Sensor | None = None, control_period: float = CONTROL_PERIOD_S,
                  method: Method | None = None) -> Episode:
     """The record (docs/conventions.md#benchmark-tasks) and trajectory of a finished trial of ``problem``.
 
@@ -145,7 +143,7 @@ def make_episode(problem: Problem, condition: Condition, result: TrialResult, la
         planning_ms_median=round(float(np.median(ms)), 3), planning_ms_max=round(float(np.max(ms)), 3),
         lanes=int(lanes), plant=plant, sensor=sensor_label(sensor),
         clearance_m=round(float(gaps.min()), 5) if gaps is not None else None,
-        diagnostics=(method or get_method(condition.method)).diagnostics(result))
+        diagnostics=(method or get_method(condition.method)).diagnostics(result), frames=result.frames)
     return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(problem.goal),
                    np.asarray(problem.obstacles).reshape(-1, 3))
 
@@ -166,6 +164,8 @@ def summarize(trials: list[dict]) -> dict:
 
     offline, replans, stalls = reported("offline_plan_s"), reported("replans"), reported("stall_resets")
     gaps = np.array([t["clearance_m"] for t in trials if t.get("clearance_m") is not None], float)
+    seen = [t["frames"] for t in trials if t.get("frames")]
+    captured = sum(f.get("captured", 0) for f in seen)
     return {"trials": len(trials), "successes": len(ok),
             "success_rate": round(len(ok) / len(trials), 4) if trials else None,
             "object_path_m": mean_std("object_path_m"), "pusher_path_m": mean_std("pusher_path_m"),
@@ -177,4 +177,6 @@ def summarize(trials: list[dict]) -> dict:
             "replans_mean": round(float(replans.mean()), 2) if len(replans) else None,
             "stall_resets_mean": round(float(stalls.mean()), 2) if len(stalls) else None,
             # every trial's smallest obstacle clearance: the least of them, and their median (m)
-            "clearance_m": [round(float(gaps.min()), 5), round(float(np.median(gaps)), 5)] if len(gaps) else None}
+            "clearance_m": [round(float(gaps.min()), 5), round(float(np.median(gaps)), 5)] if len(gaps) else None,
+            # of the frames the cameras captured, the share the perception withheld (rendered cameras)
+            "frames_withheld": round(sum(f.get("withheld", 0) for f in seen) / captured, 4) if captured else None}

@@ -12,7 +12,7 @@ modules it imports know nothing of each other.
 
 from __future__ import annotations
 
-from dexpush.common.interfaces import Plant
+from dexpush.common.interfaces import Plant, Sensor
 from dexpush.experiments.methods import Method, get_method
 from dexpush.model.cgvmm import LAMBDA_TRUE
 from dexpush.model.shape import Shape
@@ -48,10 +48,13 @@ def make_plant(name: str, shape: Shape, seed: int = 0) -> Plant:
     raise ValueError(f"unknown plant {name!r}; choose one of {', '.join(PLANTS)}")
 
 
-def world_sensor(plant: object, sensor: SensorSettings | None, seed: int) -> SensorSettings | None:
-    """The camera of trial ``seed``: a random world brings its own
-    (:meth:`dexpush.world.sensing.SensorSettings.randomized`), other plants take ``sensor`` as given."""
-    return SensorSettings.randomized(seed) if plant == "physics-random" else sensor
+def world_sensor(plant: object, sensor: Sensor | None, seed: int) -> Sensor | None:
+    """The camera of trial ``seed``: a random world brings its own noise-model camera
+    (:meth:`dexpush.world.sensing.SensorSettings.randomized`) unless ``sensor`` renders images; other
+    plants take ``sensor`` as given."""
+    if plant == "physics-random" and (sensor is None or isinstance(sensor, SensorSettings)):
+        return SensorSettings.randomized(seed)
+    return sensor
 
 
 def check_condition(params: str, method: str | Method) -> None:

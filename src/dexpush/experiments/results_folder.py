@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from dexpush.common.files import atomic_path, write_json_atomic
+from dexpush.common.interfaces import Sensor
 from dexpush.common.settings import upgrade_flat
 from dexpush.control.controller import ControllerSettings
 from dexpush.control.estimator import UKFSettings
@@ -31,7 +32,6 @@ from dexpush.experiments.records import CONDITION_KEYS
 from dexpush.experiments.registry import PARAMS, SHAPES
 from dexpush.experiments.scenarios import Task
 from dexpush.model.shape import Shape
-from dexpush.world.sensing import SensorSettings
 
 __all__ = [
     "ABSENT_MEANS",
@@ -79,7 +79,7 @@ def folder_records(out: str | os.PathLike) -> list[dict]:
     return sorted(records, key=lambda r: (*(rank.get(r[k], len(rank)) for k in CONDITION_KEYS), r["seed"]))
 
 
-def run_settings(plant: str, sensor: SensorSettings | None, settings: ControllerSettings | None, max_steps: int,
+def run_settings(plant: str, sensor: Sensor | None, settings: ControllerSettings | None, max_steps: int,
                  lanes: int) -> dict:
     """Everything besides the condition and the seed that decides a trial's outcome (JSON-friendly)."""
     sensor = sensor if sensor is not None and not sensor.perfect else None

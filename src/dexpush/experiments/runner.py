@@ -27,7 +27,7 @@ from dataclasses import replace
 import numpy as np
 
 from dexpush.common.checks import check_params, checked_vector
-from dexpush.common.interfaces import CONTROL_PERIOD_S, Controller, Plant, check_plant
+from dexpush.common.interfaces import CONTROL_PERIOD_S, Controller, Plant, Sensor, check_plant
 from dexpush.common.progress import progress_bar
 from dexpush.control.controller import ControllerSettings
 from dexpush.experiments.methods import Method, get_method
@@ -37,7 +37,7 @@ from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task
 from dexpush.experiments.simulate import ESTIMATOR_COUNTERS, Starts, TrialResult, TrialSpec, simulate
 from dexpush.model.shape import Shape
 from dexpush.problem.problem import Problem
-from dexpush.world.sensing import Camera, SensorSettings
+from dexpush.world.sensing import SensorSettings
 
 __all__ = ["batched", "plant_name", "run_episode", "run_loop", "run_trial", "trial_spec"]
 
@@ -62,7 +62,7 @@ def _problem_and_start(problem: Problem | Task, args: tuple, object_pose: object
 
 
 def run_loop(plant: Plant, controller: Controller, problem: Problem, *args: object, object_pose: object = None,
-             pusher_xy: object = None, sensor: SensorSettings | None = None, control_period: float = CONTROL_PERIOD_S,
+             pusher_xy: object = None, sensor: Sensor | None = None, control_period: float = CONTROL_PERIOD_S,
              max_steps: int = MAX_STEPS, spec: TrialSpec | None = None, progress: bool = False,
              desc: str = "episode") -> TrialResult:
     """Run ``controller`` on ``plant`` from the start ``object_pose``, ``pusher_xy`` until success,
@@ -93,7 +93,7 @@ def run_loop(plant: Plant, controller: Controller, problem: Problem, *args: obje
     if not (np.isfinite(control_period) and control_period > 0):
         raise ValueError(f"control_period must be > 0 (s), got {control_period!r}")
     sensor = sensor or SensorSettings()
-    camera = Camera(plant, sensor)
+    camera = sensor.camera(plant, problem.obstacles)
     frame = camera.reset(object_pose, pusher_xy)
     frame_period = 1.0 / sensor.rate_hz if sensor.rate_hz else control_period
     controller.reset(frame.object_pose, frame.pusher_xy)     # slow preparation happens before the clock
@@ -120,7 +120,8 @@ def run_loop(plant: Plant, controller: Controller, problem: Problem, *args: obje
                        np.asarray(lam).reshape(-1, 3), np.asarray(ms),
                        tuple(getattr(controller, "planning_s", ())),
                        *(getattr(controller, name, None) for name in ESTIMATOR_COUNTERS),
-                       stall_resets=getattr(controller, "stall_resets", None))
+                       stall_resets=getattr(controller, "stall_resets", None),
+                       frames=None if sensor.perfect else camera.counts())
 
 
 def plant_name(plant: str | Plant) -> str:
@@ -142,13 +143,13 @@ def trial_spec(params: str | object, method: str | Method, seed: int) -> TrialSp
     return TrialSpec(int(seed), lam, method.estimates)
 
 
-def batched(plant: str | Plant, method: str | Method, sensor: SensorSettings | None) -> bool:
+def batched(plant: str | Plant, method: str | Method, sensor: Sensor | None) -> bool:
     """Whether a trial runs in the batched simulator: a batched method on the model plant, exact observations."""
     return plant == "model" and get_method(method).batched and (sensor is None or sensor.perfect)
 
 
 def run_trial(problem: Problem, starts: Starts, spec: TrialSpec, method: str | Method,
-              plant: str | Plant = "model", sensor: SensorSettings | None = None,
+              plant: str | Plant = "model", sensor: Sensor | None = None,
               settings: ControllerSettings | None = None, max_steps: int = MAX_STEPS, progress: bool = False,
               lanes: int = 1, chunk: int = 25, desc: str = "episode") -> TrialResult:
     """One trial of ``problem`` from ``starts(spec.seed)``: batched on the model plant with exact
@@ -179,7 +180,7 @@ def run_trial(problem: Problem, starts: Starts, spec: TrialSpec, method: str | M
 def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str | object = "known",
                 method: str | Method = "mppi", seed: int = 0, max_steps: int = MAX_STEPS,
                 settings: ControllerSettings | None = None, progress: bool = False, lanes: int = 1,
-                chunk: int = 25, plant: str | Plant = "model", sensor: SensorSettings | None = None) -> Episode:
+                chunk: int = 25, plant: str | Plant = "model", sensor: Sensor | None = None) -> Episode:
     """Run one closed-loop trial (docs/conventions.md#benchmark-tasks) and record it.
 
     ``params`` is ``"known"``, ``"unknown"`` or a λ_pred = [β, x_bf, y_bf] to start from

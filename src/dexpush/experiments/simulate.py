@@ -82,6 +82,7 @@ class TrialResult:
     estimator_updates: int | None = None  #: informative windows that updated the estimate
     gated_windows: int | None = None      #: of those, windows the innovation gate down-weighted
     stall_resets: int | None = None       #: planner restarts after a stall (MPPI controllers)
+    frames: dict | None = None            #: what a camera did (:meth:`dexpush.world.sensing.Camera.counts`)
 
     @property
     def steps(self) -> int:

@@ -37,8 +37,8 @@ def write_tables(out: str | os.PathLike, records: list[dict], meta: dict) -> dic
              + (f" {meta['note']}." if meta.get("note") else ""), "",
              "| task | shape | params | method | SR | object TL (m) | pusher TL (m) | time to goal (s) "
              "| planning ms per step (median / max) | offline plan s (median / max) | replans (mean) "
-             "| stall restarts (mean) | clearance mm (least / median) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| stall restarts (mean) | clearance mm (least / median) | frames withheld |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary:
         lines.append(f"| {s['task']} | {s['shape']} | {s['params']} | {s['method']} | "
                      f"{s['successes']}/{s['trials']} ({100 * s['success_rate']:.0f} %) | {fmt(s['object_path_m'])} | "
@@ -48,7 +48,8 @@ def write_tables(out: str | os.PathLike, records: list[dict], meta: dict) -> dic
                         if s["offline_plan_s"] else "– | – |")
                      + (f" {s['stall_resets_mean']:.1f} |" if s.get("stall_resets_mean") is not None else " – |")
                      + (f" {1e3 * s['clearance_m'][0]:.1f} / {1e3 * s['clearance_m'][1]:.1f} |"
-                        if s.get("clearance_m") else " – |"))
+                        if s.get("clearance_m") else " – |")
+                     + (f" {100 * s['frames_withheld']:.1f} % |" if s.get("frames_withheld") is not None else " – |"))
     with atomic_path(files["markdown"]) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
     return files

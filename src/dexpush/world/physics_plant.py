@@ -6,6 +6,7 @@ family) and the scene's XML (:func:`scene_xml`). A :class:`dexpush.common.interf
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import jax.numpy as jnp
@@ -19,7 +20,8 @@ from dexpush.model.polygons import convex_hull, distance_to_polygons
 from dexpush.model.shape import Shape
 from dexpush.world.model_plant import check_no_tunnelling
 
-__all__ = ["MAX_PRISMS", "PRESSURES", "PUSHER_MASS", "PhysicsPlant", "PhysicsSettings", "convex_prisms", "scene_xml"]
+__all__ = ["MAX_PRISMS", "PRESSURES", "PUSHER_MASS", "PhysicsPlant", "PhysicsSettings", "SceneExtras", "convex_prisms",
+           "scene_xml"]
 
 
 # ---------------------------------------------------------------------------- physics plant
@@ -129,7 +131,23 @@ def convex_prisms(shape: Shape) -> list[np.ndarray]:
     return pieces
 
 
-def scene_xml(shape: Shape, settings: PhysicsSettings) -> str:
+@dataclass(frozen=True)
+class SceneExtras:
+    """Things added to the scene that do not touch its physics: cameras, textures, marker plates, a
+    visual arm (:mod:`dexpush.world.rendered_camera`). Each string is MJCF inserted into the
+    ``<asset>``, the ``<worldbody>``, the slider's body or the pusher's body; ``files`` are the assets'
+    file contents by name. Geoms added must not collide (``contype="0" conaffinity="0"``) and bodies
+    must carry no mass or joints: the dynamics stay those of the bare scene."""
+
+    asset: str = ""
+    world: str = ""
+    slider: str = ""
+    pusher: str = ""
+    visual: str = ""
+    files: tuple[tuple[str, bytes], ...] = ()
+
+
+def scene_xml(shape: Shape, settings: PhysicsSettings, extras: SceneExtras | None = None) -> str:
     """MJCF of table, slider and pusher, built from the shape (convex prisms, :func:`convex_prisms`).
 
     Contact groups (contype/conaffinity bits) keep the three kinds of contact apart: the
@@ -141,6 +159,7 @@ def scene_xml(shape: Shape, settings: PhysicsSettings) -> str:
     absorb the tipping moment unevenly and distort that pressure distribution.
     """
     s = settings
+    x = extras or SceneExtras()
     h = s.height
     points = _support_points(shape, s.support_spacing, s.pressure, s.pressure_band)
     com, inertia = _inertia(points, s.mass, h)
@@ -159,7 +178,8 @@ def scene_xml(shape: Shape, settings: PhysicsSettings) -> str:
     return f"""<mujoco model="dexpush">
   <option timestep="{s.timestep}" integrator="implicitfast" cone="elliptic" impratio="{s.impratio}"/>
   <default><geom solref="{solref}" solimp="0.95 0.99 0.001"/></default>
-  <asset>{''.join(meshes)}</asset>
+  {x.visual}
+  <asset>{''.join(meshes)}{x.asset}</asset>
   <worldbody>
     <geom name="table" type="plane" size="2 2 0.1" contype="1" conaffinity="2"
           friction="{s.table_friction} 0.005 0.0001" rgba="0.9 0.9 0.9 1"/>
@@ -169,15 +189,28 @@ def scene_xml(shape: Shape, settings: PhysicsSettings) -> str:
                 diaginertia="{inertia[0]:.8f} {inertia[1]:.8f} {inertia[2]:.8f}"/>
       {''.join(sides)}
       {''.join(supports)}
+      {x.slider}
     </body>
     <body name="pusher" pos="0 0 {h / 2 + s.support_radius:.6f}">
       <joint name="pusher_x" type="slide" axis="1 0 0"/>
       <joint name="pusher_y" type="slide" axis="0 1 0"/>
       <geom type="cylinder" size="{rho} {h}" contype="8" conaffinity="4" mass="{PUSHER_MASS}"
             friction="{s.pusher_friction} 0.005 0.0001" rgba="0.1 0.7 0.8 1"/>
+      {x.pusher}
     </body>
+    {x.world}
   </worldbody>
 </mujoco>"""
+
+
+def headless_gl() -> None:
+    """Before MuJoCo's first import: on Linux without a display, choose EGL for its off-screen rendering
+    (``MUJOCO_GL=egl``; MuJoCo reads it once, at import) unless the user chose. The rendered camera
+    (:mod:`dexpush.world.rendered_camera`) needs it; the physics alone never renders."""
+    import sys
+
+    if "mujoco" not in sys.modules and sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
+        os.environ.setdefault("MUJOCO_GL", "egl")
 
 
 class PhysicsPlant:
@@ -193,16 +226,21 @@ class PhysicsPlant:
     Args:
         shape: the slider's footprint (split into convex prisms, :func:`convex_prisms`).
         settings: :class:`PhysicsSettings`.
+        extras: :class:`SceneExtras` (cameras and other things to see; no physics).
     """
 
-    def __init__(self, shape: Shape, settings: PhysicsSettings | None = None) -> None:
+    def __init__(self, shape: Shape, settings: PhysicsSettings | None = None,
+                 extras: SceneExtras | None = None) -> None:
+        headless_gl()
         import mujoco
 
         self._mj = mujoco
         self.shape = shape
         self._contour = Contour.of(shape)
         self.settings = settings or PhysicsSettings()
-        self.model = mujoco.MjModel.from_xml_string(scene_xml(shape, self.settings))
+        self.extras = extras or SceneExtras()
+        self.model = mujoco.MjModel.from_xml_string(scene_xml(shape, self.settings, self.extras),
+                                                    dict(self.extras.files) or None)
         self.data = mujoco.MjData(self.model)
         self._qadr = self.model.jnt_qposadr[self.model.joint("slider").id]
         self._pq = [self.model.jnt_qposadr[self.model.joint(n).id] for n in ("pusher_x", "pusher_y")]

@@ -7,7 +7,8 @@ in that period (a :class:`dexpush.common.interfaces.Frame`), otherwise ``None``:
 
 * frames are captured every 1/``rate_hz`` seconds (``None``: at the end of every control
   period), by splitting the plant's step at the capture instants;
-* each capture is lost with probability ``drop_prob``;
+* each capture is lost with probability ``drop_prob``; a subclass's perception may also
+  withhold one it cannot trust (:meth:`Camera._measure`; counted in ``withheld``);
 * a frame arrives ``latency_s`` after its capture; ``Frame.time`` is the capture time, so
   the controller can predict forward over the delay;
 * the object pose gets Gaussian noise (``pos_std_m`` on x and y, ``heading_std_rad`` on θ),
@@ -72,6 +73,18 @@ class SensorSettings:
                               float(rng.uniform(0.0, 0.5e-3)), float(rng.choice([10.0, 15.0, 30.0])),
                               float(rng.uniform(0.03, 0.10)), float(rng.uniform(0.0, 0.10)), int(seed))
 
+    def camera(self, plant: Plant, obstacles: object = ()) -> Camera:
+        """``plant`` seen through this sensor (``obstacles`` are for sensors that draw the scene)."""
+        return Camera(plant, self)
+
+    def describe(self) -> str:
+        """A one-line label for records and titles."""
+        if self.perfect:
+            return "exact"
+        rate = f"{self.rate_hz:g} Hz" if self.rate_hz else "every step"
+        return (f"{rate}, noise {self.pos_std_m * 1e3:g} mm / {np.degrees(self.heading_std_rad):.2g}°, "
+                f"latency {self.latency_s * 1e3:g} ms, drops {self.drop_prob:.0%}")
+
     @property
     def perfect(self) -> bool:
         return (self.pos_std_m == self.heading_std_rad == self.pusher_std_m == self.latency_s == self.drop_prob == 0
@@ -95,7 +108,7 @@ class Camera:
         self._pending: deque[tuple[float, Frame]] = deque()
         self._next_capture = 0.0
         self.time = 0.0
-        self.captured = self.dropped = self.delivered = 0
+        self.captured = self.dropped = self.delivered = self.withheld = 0
 
     def _observe(self) -> Observation:
         """The plant's observation, checked: a finite (3,) pose and a finite (2,) pusher position."""
@@ -107,17 +120,25 @@ class Camera:
         return Observation(checked_vector(f"{name}.observe().object_pose", obs.object_pose, 3),
                            checked_vector(f"{name}.observe().pusher_xy", obs.pusher_xy, 2), getattr(obs, "time", 0.0))
 
-    def _capture(self) -> None:
+    def _measure(self) -> Frame | None:
+        """What the sensor makes of the plant now (time :attr:`time`): the noisy pose, or None when it
+        cannot tell (a subclass's perception may withhold a frame)."""
         s = self.settings
-        self.captured += 1
-        if self._rng.random() < s.drop_prob:
-            self.dropped += 1
-            return
         obs = self._observe()
         noise = self._rng.normal(size=5) * [s.pos_std_m, s.pos_std_m, s.heading_std_rad, s.pusher_std_m,
                                             s.pusher_std_m]
-        frame = Frame(obs.object_pose + noise[:3], obs.pusher_xy + noise[3:], self.time)
-        self._pending.append((self.time + s.latency_s, frame))
+        return Frame(obs.object_pose + noise[:3], obs.pusher_xy + noise[3:], self.time)
+
+    def _capture(self) -> None:
+        self.captured += 1
+        if self._rng.random() < self.settings.drop_prob:
+            self.dropped += 1
+            return
+        frame = self._measure()
+        if frame is None:
+            self.withheld += 1
+            return
+        self._pending.append((self.time + self.settings.latency_s, frame))
 
     def reset(self, object_pose: object, pusher_xy: object) -> Frame:
         """Reset the plant; the first frame (time 0) is returned at once, so a run can start."""
@@ -125,13 +146,14 @@ class Camera:
         self._rng = np.random.default_rng(self.settings.seed)
         self._pending.clear()
         self.time = 0.0
-        self.captured = self.dropped = self.delivered = 0
+        self.captured = self.dropped = self.delivered = self.withheld = 0
         s = self.settings
-        noise = self._rng.normal(size=5) * [s.pos_std_m, s.pos_std_m, s.heading_std_rad, s.pusher_std_m,
-                                            s.pusher_std_m]
-        obs = self._observe()
         self._next_capture = 1.0 / s.rate_hz if s.rate_hz else np.inf
-        return Frame(obs.object_pose + noise[:3], obs.pusher_xy + noise[3:], 0.0)
+        first = self._measure()
+        if first is None:
+            raise ValueError(f"{type(self).__name__} sees nothing it can trust at the start pose; "
+                             "check the camera set-up and the markers")
+        return first
 
     def step(self, velocity: object, dt: float = CONTROL_PERIOD_S) -> Frame | None:
         """Advance the plant by ``dt`` under ``velocity``; the newest frame that arrived, or None."""
@@ -155,6 +177,12 @@ class Camera:
         if newest is not None:
             self.delivered += 1
         return newest
+
+    def counts(self) -> dict[str, int]:
+        """Frames since the reset: ``captured``, ``dropped`` (lost in transport), ``withheld`` (the
+        perception could not trust them) and ``delivered`` (handed to the controller)."""
+        return {"captured": self.captured, "dropped": self.dropped, "withheld": self.withheld,
+                "delivered": self.delivered}
 
     @property
     def state(self) -> np.ndarray:
