@@ -272,6 +272,7 @@ class RenderedCamera(Camera):
                 raise ValueError(f"shape file {settings.marker_file}: no [markers] table "
                                  "(docs/perception.md#marker-placement)")
         if layout is None:
+            # the slider's top lies at height + support_radius; its plates' tops 2.4 mm above it (on standoffs)
             layout = default_layout(shape.polygons, physics.height + 2 * physics.support_radius + 0.0004)
         if settings.pusher_marker and layout.pusher is None:
             layout = replace(layout, pusher=Marker(max(m.id for m in layout.object_markers) + 1, 0.05))
