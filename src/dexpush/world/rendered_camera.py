@@ -90,9 +90,8 @@ class RenderSettings:
             raise ValueError(f"RenderSettings.fovy_deg must be in [10, 120] degrees, got {self.fovy_deg!r}")
         if not (math.isfinite(self.rate_hz) and 0 < self.rate_hz <= 240):
             raise ValueError(f"RenderSettings.rate_hz must be in (0, 240] frames per second, got {self.rate_hz!r}")
-        if not 0.0 <= self.drop_prob < 1.0:
-            raise ValueError(f"RenderSettings.drop_prob must be in [0, 1), got {self.drop_prob!r}")
-        for name in ("pixel_noise", "exposure_s", "pusher_std_m", "latency_s"):
+        self.sensor()            # the timing, the drops, the pusher noise and the seed: SensorSettings' rules
+        for name in ("pixel_noise", "exposure_s"):
             v = getattr(self, name)
             if not math.isfinite(v) or v < 0:
                 raise ValueError(f"RenderSettings.{name} must be a finite number >= 0, got {v!r}")
@@ -125,6 +124,12 @@ def setup_cameras(settings: RenderSettings) -> list[CameraModel]:
 
 def _fmt(v: object) -> str:
     return " ".join(f"{float(x):.6f}" for x in np.ravel(v))
+
+
+def _visual(width: int, height: int) -> str:
+    """MJCF ``<visual>``: the headlight alone (no shadows), no multisampling, an off-screen buffer of the image size."""
+    return ('<visual><quality shadowsize="0" offsamples="0"/><headlight ambient="0.55 0.55 0.55" '
+            f'diffuse="0.45 0.45 0.45" specular="0 0 0"/><global offwidth="{width}" offheight="{height}"/></visual>')
 
 
 def _marker_plate(m: Marker, dictionary: str, z: float, name: str) -> tuple[str, str, str]:
@@ -180,10 +185,8 @@ def _scene_extras(layout: MarkerLayout, cameras: list[CameraModel], settings: Re
         x, y = cam.rotation[:, 0], -cam.rotation[:, 1]     # MuJoCo's camera: x right, y up, looking along −z
         world.append(f'<camera name="{cam.name}" pos="{_fmt(cam.position)}" xyaxes="{_fmt(x)} {_fmt(y)}" '
                      f'fovy="{cam.fovy_deg:.6f}"/>')
-    visual = ('<visual><quality shadowsize="0" offsamples="0"/><headlight ambient="0.55 0.55 0.55" '
-              f'diffuse="0.45 0.45 0.45" specular="0 0 0"/><global offwidth="{settings.width}" '
-              f'offheight="{settings.height}"/></visual>')
-    return SceneExtras("".join(assets), "".join(world), "".join(slider), "".join(pusher), visual, tuple(files))
+    return SceneExtras("".join(assets), "".join(world), "".join(slider), "".join(pusher),
+                       _visual(settings.width, settings.height), tuple(files))
 
 
 def _calibrated(path: str, true: list[CameraModel]) -> list[CameraModel]:
@@ -375,9 +378,7 @@ def board_images(board: Board, camera: CameraModel, tilts_deg: list[tuple[float,
     c, s = math.cos(yaw), math.sin(yaw)
     pos = np.array(board.pose[:2]) + np.array([[c, -s], [s, c]]) @ centre
     cam_x, cam_y = _fmt(camera.rotation[:, 0]), _fmt(-camera.rotation[:, 1])
-    xml = f"""<mujoco><visual><quality shadowsize="0" offsamples="0"/><headlight ambient="0.55 0.55 0.55"
-      diffuse="0.45 0.45 0.45" specular="0 0 0"/><global offwidth="{camera.width}" offheight="{camera.height}"/>
-      </visual><asset><texture name="board" type="2d" file="board.png"/>
+    xml = f"""<mujoco>{_visual(camera.width, camera.height)}<asset><texture name="board" type="2d" file="board.png"/>
       <material name="board" texture="board" texrepeat="1 1" texuniform="false" specular="0"/></asset>
       <worldbody><geom type="plane" size="3 3 0.1" rgba="0.45 0.45 0.45 1"/>
       <body name="board" mocap="true"><geom type="box" size="{w / 2:.6f} {h / 2:.6f} 0.0002" material="board"
