@@ -117,8 +117,14 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
                 finally:
                     if main:
                         signal.signal(signal.SIGINT, previous)
-                for f in futures:
-                    f.result()
+                try:
+                    for f in futures:
+                        f.result()
+                except KeyboardInterrupt:
+                    # a worker that was still importing ignored the Ctrl-C: end it rather than wait for its group
+                    for process in list((getattr(ex, "_processes", None) or {}).values()):
+                        process.terminate()
+                    raise
         finally:
             if saved is None:
                 os.environ.pop("NPROC", None)
