@@ -118,3 +118,12 @@ def test_a_random_world_keeps_the_rendered_camera_and_the_runner_reseeds_it() ->
     assert world_sensor("physics-random", None, 3) == SensorSettings.randomized(3)
     assert world_sensor("physics", render, 3) is render
     assert not render.perfect and render.describe().startswith("rendered two (2 cameras, 1280×720, 15 Hz")
+
+
+def test_a_shape_files_bad_markers_are_one_line_before_anything_runs(tmp_path: Path, capsys) -> None:
+    shape = tmp_path / "box.toml"
+    shape.write_text("[shape]\npolygons = [[[-0.1, -0.06], [0.1, -0.06], [0.1, 0.06], [-0.1, 0.06]]]\n\n"
+                     "[markers]\nheight = 0.024\n\n[[markers.object]]\nid = 99\nsize = 0.04\n")
+    assert main(["run", "--plant", "physics", "--camera", "rendered", "--shape", str(shape), "--task", "II",
+                 "--quiet", "--no-animation", "--out", str(tmp_path / "run")]) == 2
+    assert "marker id 99 is not in dictionary 4x4_50" in _error_line(capsys)

@@ -44,6 +44,7 @@ from dexpush.experiments.registry import PARAMS, PLANTS, SHAPES, check_condition
 from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task
 from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C
 from dexpush.model.shape import Shape
+from dexpush.perception.markers import read_marker_layout
 from dexpush.world.model_plant import ModelPlant
 from dexpush.world.physics_plant import PhysicsPlant, PhysicsSettings
 from dexpush.world.rendered_camera import RenderSettings
@@ -210,8 +211,8 @@ def build_sensor(config: RunConfig) -> SensorSettings | RenderSettings | None:
     if config.run.camera == "rendered":
         render = config.render
         shape = config.run.shape
-        if not render.marker_file and shape.endswith(".toml") and "markers" in read_toml(shape, "shape file"):
-            render = dataclasses.replace(render, marker_file=shape)
+        if not render.marker_file and shape.endswith(".toml") and read_marker_layout(shape) is not None:
+            render = dataclasses.replace(render, marker_file=shape)     # (checked here, before anything compiles)
         return render
     return config.sensor if config.sensor != SensorSettings() else None
 
