@@ -6,7 +6,9 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-slow examples lint bench clean
+FRANKA := $(VENV)/.franka
+
+.PHONY: demo test test-slow test-franka examples lint bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -19,10 +21,18 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples
-	$(BIN)/python -m pytest -q -m "not slow" -n 2
+	$(BIN)/python -m pytest -q -m "not slow and not franka" -n 2
+
+$(FRANKA): $(STAMP)
+	$(BIN)/pip install --quiet -e ".[dev,camera,franka]"
+	touch $(FRANKA)
+
+# the simulated Franka (the franka extra), in a network namespace with only the loopback up
+test-franka: $(FRANKA)
+	unshare -rn sh -c 'ip link set lo up 2>/dev/null; $(BIN)/python -m pytest -q -m franka tests/test_franka_sim.py'
 
 test-slow: $(STAMP)
-	$(BIN)/python -m pytest -q -m slow
+	$(BIN)/python -m pytest -q -m "slow and not franka"
 
 examples: $(STAMP)
 	$(BIN)/python examples/own_object.py --out out/examples

@@ -21,7 +21,7 @@ LAYERS = [
     {"model"},
     {"problem", "viz", "perception"},
     {"control", "world", "gcs"},
-    {"data"},
+    {"data", "robot"},
     {"experiments"},
     {"env", "cli", "__init__"},
 ]
@@ -36,11 +36,12 @@ INNER = {
     "problem": [{"weights"}, {"scene"}, {"obstacles"}, {"cost"}, {"problem"}],
     "control": [{"noise", "ukf"}, {"mppi", "proposals", "estimator"}, {"settings"}, {"policy"}, {"controller"}],
     "world": [{"model_plant", "sensing"}, {"physics_plant"}, {"rendered_camera"}],
+    "robot": [{"safety", "watchdog"}, {"guarded", "driver"}, {"franky_driver", "franka_sim"}],
     "perception": [{"camera_model", "markers"}, {"camera_file", "planar_pose", "detect"}, {"tracker", "calibration"},
                    {"live"}],
     "data": [{"push"}, {"labelling"}, {"fitting"}, {"mit"}, {"validation", "push_logs", "online_ukf"}],
-    "experiments": [{"scenarios"}, {"simulate"}, {"methods"}, {"registry"}, {"records"}, {"runner"}, {"tables"},
-                    {"results_folder"}, {"benchmark"}],
+    "experiments": [{"scenarios"}, {"simulate"}, {"methods"}, {"registry"}, {"records"}, {"runner"},
+                    {"tables", "robot_trial"}, {"results_folder"}, {"benchmark"}],
     "cli": [{"arguments", "settings_file"}, {"config", "flags"}, {"commands"}, {"main"}],
 }
 

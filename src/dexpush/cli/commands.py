@@ -18,7 +18,7 @@ from dexpush.experiments.methods import get_method, method_names
 from dexpush.experiments.records import CONDITION_KEYS
 from dexpush.experiments.registry import PARAMS, SHAPES
 
-__all__ = ["cmd_bench", "cmd_fit", "cmd_run", "cmd_validate", "effective_config"]
+__all__ = ["cmd_bench", "cmd_fit", "cmd_robot", "cmd_run", "cmd_validate", "effective_config"]
 
 
 def _episode_files(episode, shape, out: Path, animation: bool, control_period: float = CONTROL_PERIOD_S,
@@ -114,6 +114,57 @@ def cmd_run(args: argparse.Namespace) -> dict:
                            control_period=settings.mppi.control_period,
                            truth=(run.true_params or LAMBDA_TRUE) if run.plant == "model" else None)
     summary = episode.summary()
+    summary["files"] = files
+    return summary
+
+
+def cmd_robot(args: argparse.Namespace) -> dict:
+    """``dexpush robot``: one episode on the simulated FR3 (``--sim``, the default) or a real Franka
+    (``--robot ADDRESS``), through the frame guard, the safety filter and the watchdog (docs/robot.md)."""
+    from dexpush.cli.config import build_sensor, build_task, check_run_config, lambda_pred, load_shape
+    from dexpush.experiments.robot_trial import RobotSettings, run_robot_episode
+    from dexpush.robot.driver import DriverSettings
+    from dexpush.robot.safety import SafetySettings
+    from dexpush.world.sensing import SensorSettings
+
+    config = effective_config(args)
+    run = config.run
+    if run.camera == "rendered":
+        raise ValueError("the robot command sees the object through the noise-model camera (--camera realistic); "
+                         "the rendered camera is not in the robot's scene yet")
+    check_run_config(config)
+    if args.robot is not None:
+        raise ValueError(f"--robot {args.robot}: a real Franka needs the object's pose from your tracker; run it "
+                         "from Python with run_robot_episode(..., address=..., sim=your_pose_source) "
+                         "(docs/robot.md#a-real-franka)")
+    shape = load_shape(run.shape)
+    task = build_task(run)
+    sensor = build_sensor(config)
+    if sensor is None and getattr(args, "camera", None) != "exact":
+        sensor = SensorSettings.realistic(seed=0)           # a robot sees through a camera unless told otherwise
+    robot = RobotSettings(safety=SafetySettings(v_max=args.v_limit, a_max=args.a_limit,
+                                                workspace=tuple(args.workspace) if args.workspace else None),
+                          driver=DriverSettings(dynamics_factor=args.dynamics_factor))
+    params = run.params if run.lambda_pred is None else lambda_pred(run)
+    t0 = time.perf_counter()
+    episode, report = run_robot_episode(task, shape, params=params, method=run.method, seed=run.seed,
+                                        settings=config.controller, sensor=sensor, robot=robot,
+                                        max_steps=run.max_steps, progress=not args.quiet)
+    report["wall_s"] = round(time.perf_counter() - t0, 2)
+    out = Path(args.out)
+    files = _episode_files(episode, shape, out, animation=not args.no_animation,
+                           control_period=config.controller.mppi.control_period)
+    from dexpush.common.files import atomic_path, write_json_atomic
+
+    files["log"] = str(out / "push_log.csv")         # what `dexpush fit` reads: one row per control step
+    T = config.controller.mppi.control_period
+    with atomic_path(files["log"]) as tmp, open(tmp, "w") as fh:
+        fh.write("t,x,y,theta,px,py\n")
+        for k, x in enumerate(episode.states):
+            fh.write(f"{k * T:.4f}," + ",".join(f"{v:.6f}" for v in x) + "\n")
+    summary = episode.summary()
+    summary["robot"] = report
+    write_json_atomic(files["summary"], summary)
     summary["files"] = files
     return summary
 

@@ -7,6 +7,7 @@
     dexpush validate-mit DATA_DIR [--out DIR] [--online]  C-GVMM (and the online UKF) against recorded MIT pushes
     dexpush fit LOG --shape FILE.toml        fit λ (and μ_c) to your own recorded pushes
     dexpush calibrate --board B.toml IMG...  a camera's pose (and intrinsics) from images of a board
+    dexpush robot --sim --task I --shape rect  one episode on a simulated Franka FR3 (needs dexpush[franka])
 
 Every command writes its files under ``--out`` and prints a one-line JSON summary last.
 """
@@ -22,7 +23,7 @@ import warnings
 from collections.abc import Sequence
 
 from dexpush.cli.arguments import floats, out_folder, positive_float, positive_int, seed, seed_list
-from dexpush.cli.commands import cmd_bench, cmd_calibrate, cmd_fit, cmd_run, cmd_validate
+from dexpush.cli.commands import cmd_bench, cmd_calibrate, cmd_fit, cmd_robot, cmd_run, cmd_validate
 from dexpush.cli.flags import add_camera_flags, add_planner_flags
 from dexpush.experiments.benchmark import BENCH_LANES
 from dexpush.experiments.methods import method_names
@@ -103,6 +104,35 @@ def build_parser() -> argparse.ArgumentParser:
     add_camera_flags(run)
     episode_args(run, "out/run")
     run.set_defaults(func=cmd_run)
+
+    rob = sub.add_parser("robot", help="one episode on a Franka: the simulated FR3 (franky-sim, loopback) or a real "
+                                       "robot; needs pip install 'dexpush[franka]'",
+                         formatter_class=argparse.RawDescriptionHelpFormatter,
+                         epilog="examples:\n"
+                                "  dexpush robot --sim --task II --shape ellipse --seed 3\n"
+                                "  dexpush robot --config run.toml --out out/robot")
+    where = rob.add_mutually_exclusive_group()
+    where.add_argument("--sim", action="store_true", help="the simulated FR3 on 127.0.0.1, started and shut down "
+                                                         "here (the default)")
+    where.add_argument("--robot", metavar="ADDRESS", default=None, help="a real Franka's FCI address")
+    for action in what._group_actions:
+        if action.dest != "print_config":
+            rob._add_action(action)
+    for name in ("method", "params", "lambda_pred"):
+        rob._add_action(next(a for a in how._group_actions if a.dest == name))
+    safe = rob.add_argument_group("robot and safety filter")
+    safe.add_argument("--v-limit", type=positive_float, default=0.15,
+                      help="the filter's speed limit (m/s, default 0.15)")
+    safe.add_argument("--a-limit", type=positive_float, default=2.5,
+                      help="the filter's acceleration limit (m/s², default 2.5)")
+    safe.add_argument("--workspace", type=floats(4, "--workspace"), default=None, metavar="XMIN,YMIN,XMAX,YMAX",
+                      help="where the pusher may go, in the table frame (m) (default: 0.25 m around start and goal)")
+    safe.add_argument("--dynamics-factor", type=positive_float, default=0.2,
+                      help="fraction of the Franka's velocity, acceleration and jerk limits (default 0.2)")
+    add_planner_flags(rob)
+    add_camera_flags(rob)
+    episode_args(rob, "out/robot")
+    rob.set_defaults(func=cmd_robot, plant=None, lanes=1, true_params=None, mu=None)
 
     bench = sub.add_parser("bench", help="the paper's Sec. IV-B table (batched, resumable)")
     bench.add_argument("--tasks", default="I,II,III", help="comma-separated tasks from I, II, III (default I,II,III)")

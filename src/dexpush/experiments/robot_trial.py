@@ -1,0 +1,204 @@
+"""One pushing episode on a Franka (:func:`run_robot_episode`): the simulated FR3 of franky-sim on a
+loopback address, or a real robot at its FCI address, driven through franky-control, with the
+planner behind the frame guard and the safety filter and the robot behind its watchdog
+(docs/robot.md). The episode is recorded as ``dexpush run`` records one.
+"""
+
+from __future__ import annotations
+
+from contextlib import ExitStack
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from dexpush.common.checks import check_nonnegative, check_positive
+from dexpush.control.controller import ControllerSettings
+from dexpush.experiments.methods import Method, get_method
+from dexpush.experiments.records import Condition, Episode, make_episode
+from dexpush.experiments.runner import run_trial, trial_spec
+from dexpush.experiments.scenarios import Task
+from dexpush.model.shape import Shape
+from dexpush.robot.driver import DriverSettings, RobotPlant
+from dexpush.robot.guarded import FrameGuard, GuardedController
+from dexpush.robot.safety import SafetySettings
+
+__all__ = ["EXIT_TOLERANCE_M", "Guarded", "RobotSettings", "run_robot_episode", "task_workspace"]
+
+#: a tip beyond the workspace by more than this (m) counts as a workspace exit (the arm's tracking
+#: error at the boundary, well under a millimetre, does not)
+EXIT_TOLERANCE_M = 0.002
+
+
+@dataclass(frozen=True)
+class RobotSettings:
+    """The robot side of an episode (the ``[robot]`` table of a configuration file).
+
+    ``driver.table_origin`` and ``table_yaw`` place the table frame in the robot's base frame; for
+    the simulated robot they are chosen per episode (:meth:`DriverSettings.facing`: the task in
+    front of the robot) unless ``place_task`` is False. Without ``safety.workspace`` the
+    workspace is the box around the start and the goal grown by ``workspace_margin``.
+    """
+
+    safety: SafetySettings = field(default_factory=SafetySettings)
+    driver: DriverSettings = field(default_factory=DriverSettings)
+    guard: FrameGuard | None = field(default_factory=FrameGuard)   #: None: frames reach the planner as they come
+    frame_timeout_s: float = 0.5          #: no frame for this long: the pusher stops until frames return (s)
+    watchdog_s: float = 0.15              #: no command for this long (wall time): the watchdog stops the robot (s)
+    deadline_s: float = 0.02              #: the planner's deadline after each tick (s): half a 25 Hz period
+    workspace_margin: float = 0.25        #: the default workspace around start and goal (m)
+    place_task: bool = True               #: the simulated robot: place the table frame for the task
+
+    def __post_init__(self) -> None:
+        for name in ("frame_timeout_s", "watchdog_s", "deadline_s"):
+            check_positive(name, getattr(self, name))
+        check_nonnegative("workspace_margin", self.workspace_margin, "m")
+
+
+def task_workspace(points: object, margin: float) -> tuple[float, float, float, float]:
+    """The box (x_min, y_min, x_max, y_max) around ``points`` (table frame, m) grown by ``margin``."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    lo, hi = p.min(0) - margin, p.max(0) + margin
+    return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+
+
+class Guarded(Method):
+    """``method``'s controller behind the frame guard and the safety filter (:class:`GuardedController`);
+    records under the inner method's name. ``make`` builds the wrapper from the inner controller."""
+
+    def __init__(self, method: Method, make: Any) -> None:
+        self.inner = method
+        self._make = make
+        for name in ("name", "description", "obstacles", "cameras", "estimates", "default"):
+            setattr(self, name, getattr(method, name))
+        self.batched = False
+        self.last: GuardedController | None = None
+
+    def controller(self, problem: Any, params: object, seed: int = 0,
+                   settings: ControllerSettings | None = None) -> GuardedController:
+        self.last = self._make(self.inner.controller(problem, params, seed, settings))
+        return self.last
+
+    def diagnostics(self, result: Any) -> dict[str, Any]:
+        return self.inner.diagnostics(result)
+
+
+def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unknown", method: str | Method = "mppi-ukf",
+                      seed: int = 0, settings: ControllerSettings | None = None, sensor: Any = None,
+                      robot: RobotSettings | None = None, address: str | None = None, sim: Any = None,
+                      max_steps: int = 600, progress: bool = False, on_step: Any = None) -> tuple[Episode, dict]:
+    """One episode of ``task`` with ``shape`` on a Franka, and what the robot side saw.
+
+    Args:
+        task: the goal, obstacles and start distribution (``seed`` draws the start).
+        shape, params, method, seed, settings, sensor, max_steps, progress: as for
+            :func:`dexpush.experiments.runner.run_episode`; ``sensor`` sees the robot plant (the
+            noise-model camera of :class:`dexpush.world.sensing.SensorSettings`).
+        robot: :class:`RobotSettings`.
+        address: a real robot's FCI address (then the object's pose comes from ``sim``, which must
+            be a :class:`dexpush.robot.driver.PoseSource`: your tracker); None: the simulated robot.
+        sim: the simulator's settings (:class:`dexpush.robot.franka_sim.SimSettings`) or, with
+            ``address``, the pose source.
+        on_step: called with ``(period, plant, simulator or None, guarded controller)`` before each
+            control period's ``act`` (fault injection).
+
+    Returns:
+        the :class:`dexpush.experiments.records.Episode` and a dict of the robot side: the
+        simulator's checks (reflex-level limit violations, joint-limit steps, real-time factor), the
+        filter's and guard's counters, late steps, watchdog trips, the pusher tip's tracking error.
+    """
+    from dexpush.robot.franky_driver import FrankyDriver
+
+    robot = robot or RobotSettings()
+    settings = settings or ControllerSettings()
+    method = get_method(method)
+    problem = task.problem(shape, settings.weights)
+    pose, pusher = task.trial_start(shape, seed)
+    if address is not None:           # a real object is where it is: the pusher starts where the task puts it
+        pose, pusher = _start_at(np.asarray(sim.object_pose(), dtype=np.float64), pose, pusher)
+    goal = np.asarray(task.goal[:2], dtype=np.float64)
+    safety = robot.safety
+    if safety.workspace is None:
+        safety = replace(safety, workspace=task_workspace([pose[:2], pusher, goal], robot.workspace_margin))
+    driver_settings = robot.driver.facing(pose[:2], goal) if robot.place_task and address is None else robot.driver
+    if safety.reach is None:
+        safety = replace(safety, reach=driver_settings.reach_in_table())
+    T = settings.mppi.control_period
+    with ExitStack() as stack:
+        if address is None:
+            from dexpush.robot.franka_sim import FrankaSim, SimSettings
+
+            sim_settings = replace(sim or SimSettings(), driver=driver_settings)
+            world = stack.enter_context(FrankaSim(shape, problem.obstacles, sim_settings))
+            poses, address, realtime = world, world.address, False
+        else:
+            world, poses, realtime = None, sim, True
+        driver = FrankyDriver(address, driver_settings, realtime=realtime)
+        stack.callback(driver.close)
+        plant = stack.enter_context(RobotPlant(driver, poses, deadline_s=robot.deadline_s, watchdog_s=robot.watchdog_s))
+        guard = None if robot.guard is None else replace(robot.guard)
+
+        def make(controller: Any) -> GuardedController:
+            g = GuardedController(controller, T, safety, problem.obstacles, shape.pusher_radius, guard,
+                                  position=lambda: driver.tip()[:2], frame_timeout_s=robot.frame_timeout_s)
+            if on_step is not None:
+                g.on_act = lambda k: on_step(k, plant, world, g)
+            return g
+
+        guarded = Guarded(method, make)
+        spec = trial_spec(params, method, seed)
+        result = run_trial(problem, lambda _: (pose, pusher), spec, guarded, plant, sensor, settings, max_steps,
+                           progress, desc=f"robot task {task.key} {shape.name}")
+        plant.close()                 # stopped before the record is made (the watchdog has nothing to watch)
+        condition = Condition(task.key, shape.name, params if isinstance(params, str) else "custom", method.name)
+        episode = make_episode(problem, condition, result, 1, plant="franka-sim" if world is not None else "franka",
+                               sensor=sensor, control_period=T, method=method)
+        report = robot_report(episode, plant, guarded.last, world, T, safety)
+    return episode, report
+
+
+def _start_at(pose: np.ndarray, task_pose: np.ndarray, task_pusher: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The start from the object's pose ``pose``: the pusher where the task's start puts it relative to the object."""
+    c, s = np.cos(task_pose[2]), np.sin(task_pose[2])
+    d = np.asarray(task_pusher) - task_pose[:2]
+    local = np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    return pose, pose[:2] + np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
+
+
+def tracking_error(states: np.ndarray, commands: np.ndarray, control_period: float) -> np.ndarray:
+    """Per control period, how far the pusher tip ended from where its command would have taken it (m):
+    |p_{k+1} − (p_k + u_k·T)|."""
+    p = np.asarray(states, dtype=np.float64)[:, 3:5]
+    u = np.asarray(commands, dtype=np.float64).reshape(-1, 2)
+    n = min(len(u), len(p) - 1)
+    return np.linalg.norm(p[1:n + 1] - (p[:n] + u[:n] * control_period), axis=1)
+
+
+def robot_report(episode: Episode, plant: RobotPlant, guarded: GuardedController | None, world: Any,
+                 control_period: float, safety: SafetySettings) -> dict:
+    """The robot side of a finished episode (see :func:`run_robot_episode`)."""
+    states, commands = episode.states, episode.commands
+    err = tracking_error(states, commands, control_period)
+    tips = states[:, 3:5]
+    x0, y0, x1, y1 = safety.workspace
+    beyond = np.max(np.stack([x0 - tips[:, 0], tips[:, 0] - x1, y0 - tips[:, 1], tips[:, 1] - y1]), 0)
+    speed = np.linalg.norm(commands, axis=1) if len(commands) else np.zeros(1)
+    out = {"late_steps": plant.late_steps, "watchdog_stops": plant.watchdog_stops,
+           "tracking_error_mm_median": round(float(np.median(err)) * 1e3, 3) if len(err) else None,
+           "tracking_error_mm_p99": round(float(np.percentile(err, 99)) * 1e3, 3) if len(err) else None,
+           "workspace_exits": int(np.sum(beyond > EXIT_TOLERANCE_M)),
+           "workspace_overshoot_mm": round(max(float(beyond.max()), 0.0) * 1e3, 3),
+           "speed_limit_exceeded": int(np.sum(speed > safety.v_max + 1e-9)),
+           "driver_retries": getattr(plant.driver, "retries", 0)}
+    if guarded is not None:
+        out.update({"filtered": guarded.filtered, "relaxed": guarded.relaxed, "stopped": guarded.stopped,
+                    "blind_steps": guarded.blind, "frames_held": guarded.guard.held if guarded.guard else 0,
+                    "limited_by": dict(sorted(guarded.limited_by.items()))})
+    if world is not None:
+        r = world.report()
+        out.update({"reflex_limit_steps": r.over_limits, "max_commanded_acceleration": round(r.max_acceleration, 3),
+                    "max_commanded_jerk": round(r.max_jerk, 1), "joint_limit_steps": r.joint_limit_steps,
+                    "missed_commands": r.missed_commands, "real_time_factor": round(r.real_time_factor, 3),
+                    "sim_s": round(r.sim_s, 3)})
+    return out

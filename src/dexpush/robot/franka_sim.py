@@ -1,0 +1,404 @@
+"""A simulated Franka FR3 that pushes (:class:`FrankaSim`): franky-sim's MuJoCo FR3, served over the
+libfranka protocol on a loopback address, with a pusher rod on its hand, the object of the
+physics plant (:func:`dexpush.world.physics_plant.scene_xml`: a free body on support spheres with
+explicit friction pairs) on the table, and the obstacles drawn (``pip install 'dexpush[franka]'``).
+
+The simulator runs in a child process (it steps at 1 kHz in Python; apart from the planner, it
+gets a core of its own). The parent reads the object's true pose and the simulator's checks
+through shared memory and sends it commands (place the object, knock it, stop) through a pipe.
+The checks are those a real Franka makes and franky-sim does not: the commanded tip
+acceleration and jerk of the pushing stream against the robot's limits (a real robot aborts
+with a reflex beyond them) and the joints against their ranges (:class:`SimReport`).
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import time
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from dexpush.common.checks import check_positive
+from dexpush.model.shape import Shape
+from dexpush.robot.driver import DriverSettings
+from dexpush.world.physics_plant import PhysicsSettings, SceneExtras, scene_xml
+
+__all__ = ["FRANKA_LIMITS", "FrankaSim", "SimReport", "SimSettings"]
+
+#: the Franka's Cartesian limits on the commanded tip motion (translation): m/s, m/s², m/s³
+FRANKA_LIMITS = {"velocity": 1.7, "acceleration": 13.0, "jerk": 6500.0}
+
+#: the end-effector frame's offset from the hand along its z axis in franky-sim (the fingertip centre), m
+_EE_FROM_HAND = 0.1034
+_ROD_LENGTH = 0.06
+
+# shared-memory layout (float64)
+_TIME, _POSE, _TIP, _ACC, _JERK, _OVER, _JOINTS, _STEPS, _BUSY, _WALL, _MISSED = 0, 1, 4, 7, 8, 9, 10, 11, 12, 13, 14
+_SIZE = 15
+
+
+@dataclass(frozen=True)
+class SimSettings:
+    """The simulated robot's world.
+
+    The object is the physics plant's slider (``physics``; its support grid is coarser than the
+    plant's default, 2 cm: the robot's own collisions already fill the 1 ms step); the robot's
+    base is at the origin, the table frame where ``driver.table_origin`` says.
+    """
+
+    physics: PhysicsSettings = field(default_factory=lambda: PhysicsSettings(support_spacing=0.02))
+    driver: DriverSettings = field(default_factory=DriverSettings)
+    realtime: float = 1.0            #: pace the 1 kHz loop by the wall clock (1: real time; 0: as fast as it can)
+    hosts: tuple[str, ...] = tuple(f"127.0.0.{i}" for i in range(1, 255))   #: loopback addresses to bind
+    start_timeout_s: float = 60.0    #: how long the child may take to come up (s)
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.realtime) and self.realtime >= 0):
+            raise ValueError(f"realtime is a pacing factor >= 0, got {self.realtime!r}")
+        bad = [h for h in self.hosts if not h.startswith("127.")]
+        if bad or not self.hosts:
+            raise ValueError(f"the simulated robot binds loopback addresses (127.x) only, got {bad or 'none'}")
+        check_positive("start_timeout_s", self.start_timeout_s, "s")
+
+
+@dataclass(frozen=True)
+class SimReport:
+    """What the simulator checked since it started: ``over_limits`` counts the 1 ms steps in which the
+    commanded tip acceleration or jerk exceeded :data:`FRANKA_LIMITS` (a real Franka would abort with a
+    reflex), ``joint_limit_steps`` those with a joint outside its range, ``missed_commands`` the steps
+    in a motion that brought no new command from the client (a real Franka tolerates a few: libfranka's
+    ``communication_constraints_violation`` ends a motion after too many); the maxima; the simulated
+    seconds, the real-time factor (simulated over wall seconds) and the stepping capacity (simulated
+    seconds over the wall seconds spent stepping: the factor it could reach unpaced)."""
+
+    sim_s: float
+    max_acceleration: float
+    max_jerk: float
+    over_limits: int
+    joint_limit_steps: int
+    missed_commands: int
+    real_time_factor: float
+    step_capacity: float
+
+
+def _world_xml(shape: Shape, physics: PhysicsSettings, obstacles: np.ndarray) -> str:
+    """The physics plant's scene with the obstacles drawn (no collisions: a touch is judged from the true state)."""
+    discs = "".join(f'<geom type="cylinder" size="{r:.6f} 0.03" pos="{x:.6f} {y:.6f} 0.03" contype="0" '
+                    f'conaffinity="0" rgba="0.8 0.3 0.3 0.6"/>' for x, y, r in obstacles)
+    return scene_xml(shape, physics, SceneExtras(world=discs))
+
+
+class FrankaSim:
+    """franky-sim's FR3 pushing the object, in a child process on a loopback address.
+
+    Use as a context manager (it shuts the child down); ``address`` is where a franky client
+    connects; it is also a :class:`dexpush.robot.driver.PoseSource` (the object's true pose).
+
+    Args:
+        shape: the object.
+        obstacles: discs (c_x, c_y, r) in the table frame (m), drawn in the scene.
+        settings: :class:`SimSettings`.
+    """
+
+    def __init__(self, shape: Shape, obstacles: object = (), settings: SimSettings | None = None) -> None:
+        try:
+            import franky_sim  # noqa: F401
+        except ImportError as exc:
+            raise ImportError("the simulated Franka needs franky-sim: pip install 'dexpush[franka]'") from exc
+        self.shape = shape
+        self.settings = settings or SimSettings()
+        obs = np.asarray(obstacles, dtype=np.float64).reshape(-1, 3)
+        base_obs = np.concatenate([self.settings.driver.to_base(obs[:, :2]), obs[:, 2:]], 1) if len(obs) else obs
+        self._xml = _world_xml(shape, self.settings.physics, base_obs)
+        ctx = mp.get_context("spawn")
+        self._shared = ctx.Array("d", _SIZE, lock=False)
+        self._conn, child = ctx.Pipe()
+        d = self.settings.driver
+        rho = float(shape.pusher_radius * self.settings.physics.pusher_radius_scale)
+        self._proc = ctx.Process(target=_serve, name="franky-sim", daemon=True,
+                                 args=(self._xml, rho, d.tool_offset, tuple(d.table_origin), float(d.table_yaw),
+                                       self.settings.hosts, float(self.settings.realtime), self._shared, child))
+        self.address: str | None = None
+
+    def start(self) -> FrankaSim:
+        self._proc.start()
+        if not self._conn.poll(self.settings.start_timeout_s):
+            self.close()
+            raise RuntimeError(f"the simulated Franka did not come up within {self.settings.start_timeout_s:g} s")
+        try:
+            kind, value = self._conn.recv()
+        except EOFError:
+            kind, value = "error", f"its process ended (exit code {self._proc.exitcode})"
+        if kind != "ready":
+            self.close()
+            raise RuntimeError(f"the simulated Franka failed to start: {value}")
+        self.address = value
+        return self
+
+    def __enter__(self) -> FrankaSim:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _ask(self, *message: object) -> object:
+        if not self._proc.is_alive():
+            raise RuntimeError("the simulated Franka has stopped")
+        self._conn.send(message)
+        if not self._conn.poll(10.0):
+            raise RuntimeError(f"the simulated Franka did not answer {message[0]!r}")
+        kind, value = self._conn.recv()
+        if kind == "error":
+            raise RuntimeError(f"the simulated Franka: {value}")
+        return value
+
+    # PoseSource
+    def object_pose(self) -> np.ndarray:
+        return np.array(self._shared[_POSE:_POSE + 3])
+
+    def place(self, pose: object) -> None:
+        """Put the object at rest at ``pose`` (x, y, θ in the table frame)."""
+        self._ask("place", tuple(float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3)))
+
+    def knock(self, dxy: object) -> None:
+        """Move the object by ``dxy`` (m, table frame) at once, as a hand knocking it would."""
+        self._ask("knock", tuple(float(v) for v in np.asarray(dxy, dtype=np.float64).reshape(2)))
+
+    @property
+    def time(self) -> float:
+        return float(self._shared[_TIME])
+
+    def tip(self) -> np.ndarray:
+        """The pusher tip's true position (table frame, z above the table), from the simulation."""
+        return np.array(self._shared[_TIP:_TIP + 3])
+
+    def report(self) -> SimReport:
+        s = self._shared
+        sim_s = s[_STEPS] * 1e-3
+        return SimReport(float(s[_TIME]), float(s[_ACC]), float(s[_JERK]), int(s[_OVER]), int(s[_JOINTS]),
+                         int(s[_MISSED]),
+                         float(sim_s / s[_WALL]) if s[_WALL] > 0 else 0.0,
+                         float(sim_s / s[_BUSY]) if s[_BUSY] > 0 else 0.0)
+
+    def close(self) -> None:
+        if self._proc.is_alive():
+            try:
+                self._conn.send(("close",))
+            except (BrokenPipeError, OSError):
+                pass
+            self._proc.join(5.0)
+        if self._proc.is_alive():
+            self._proc.terminate()
+            self._proc.join(2.0)
+
+
+# ---------------------------------------------------------------------------- the child process
+def _graft(sim: object, xml: str, rho: float, tool_offset: float) -> None:
+    """Move our scene's slider, meshes and drawn obstacles into franky-sim's scene and put the pusher
+    rod on the hand (its bottom ``tool_offset`` beyond the end-effector frame)."""
+    ours = ET.fromstring(xml)
+    solref = ours.find("default/geom").get("solref")
+    solimp = ours.find("default/geom").get("solimp")
+    opt, our_opt = sim.scene.find("option"), ours.find("option")
+    for key in ("cone", "impratio"):
+        opt.set(key, our_opt.get(key))
+    for geom in sim.worldbody.findall("geom"):
+        if geom.get("name") == "ground":     # the table: touches the slider's support spheres only
+            table = ours.find("worldbody/geom")
+            for key in ("conaffinity", "friction"):
+                geom.set(key, table.get(key))
+            geom.set("contype", "0")         # not the arm (its base rests on it): a low tip is checked instead
+    asset = sim.scene.find("asset")
+    for mesh in ours.find("asset"):
+        asset.append(mesh)
+    for child in ours.find("worldbody"):
+        if child.tag == "body" and child.get("name") == "pusher":
+            pusher = child.find("geom")
+            continue
+        if child.tag == "geom" and child.get("name") == "table":
+            continue
+        for g in child.iter("geom"):
+            g.set("solref", g.get("solref", solref))
+            g.set("solimp", g.get("solimp", solimp))
+        sim.worldbody.append(child)
+    hand = next(b for b in sim.worldbody.iter("body") if b.get("name", "").endswith("hand"))
+    bottom = _EE_FROM_HAND + tool_offset
+    ET.SubElement(hand, "geom", name="pusher_rod", type="cylinder", size=f"{rho:.6f} {_ROD_LENGTH / 2}",
+                  pos=f"0 0 {bottom - _ROD_LENGTH / 2:.6f}", contype=pusher.get("contype"),
+                  conaffinity=pusher.get("conaffinity"), friction=pusher.get("friction"), mass="0.05",
+                  rgba="0.1 0.7 0.8 1", solref=solref, solimp=solimp)
+    ET.SubElement(hand, "site", name="pusher_tip", pos=f"0 0 {bottom:.6f}", size="0.002")
+
+
+#: a gap in the command stream longer than this (s) starts a new motion: no derivative spans it
+_GAP_S = 0.005
+
+
+class _Checks:
+    """The commanded tip motion against :data:`FRANKA_LIMITS`, from each command of the client's 1 kHz
+    stream (a millisecond without one is counted in ``missed``; the next difference spans the gap)."""
+
+    def __init__(self) -> None:
+        self.v = self.a = self.mode = None
+        self.t = 0.0
+        self.max_a = self.max_j = 0.0
+        self.over = self.missed = 0
+
+    def command(self, mode: str, v: np.ndarray, t: float) -> None:
+        if mode != self.mode or not (0 < t - self.t <= _GAP_S):   # a new motion (or a new connection)
+            self.mode, self.v, self.a = mode, None, None
+        if self.v is not None:
+            dt = t - self.t
+            self.missed += round(dt / 1e-3) - 1
+            a = (v - self.v) / dt
+            if self.a is not None:
+                j = float(np.linalg.norm(a - self.a)) / dt
+                self.max_j = max(self.max_j, j)
+                self.over += j > FRANKA_LIMITS["jerk"]
+            na = float(np.linalg.norm(a))
+            self.max_a = max(self.max_a, na)
+            self.over += na > FRANKA_LIMITS["acceleration"]
+            self.a = a
+        self.v, self.t = v, t
+
+
+def watch_commands(robot_server: object, checks: _Checks) -> None:
+    """Feed ``checks`` the commanded tip velocity of every Cartesian velocity command the client sends
+    (the pushing stream), on the command's own clock: its message id counts the robot's 1 ms states.
+
+    Pose motions (the moves to the start) are not checked: in the simulator the client's pose
+    commands carry its scheduling jitter (a late millisecond shows as a velocity spike of the
+    commanded pose), which a real robot's hard 1 kHz cycle does not have; franky's Ruckig shapes them."""
+    from franky_sim.franka_robot_protocol import UDPCommand
+
+    handle = robot_server._handle_udp_command
+
+    def handle_and_check(command_data: bytes) -> None:
+        handle(command_data)
+        cmd = UDPCommand.from_bytes(command_data)
+        mode = getattr(getattr(robot_server, "_FrankaRobotServer__control_mode", None), "value", "")
+        if cmd.message_id > 0 and not cmd.motion_generation_finished and mode == "cartesian_velocity":
+            checks.command(mode, np.asarray(cmd.O_dP_EE_c[:3], dtype=np.float64), cmd.message_id * 1e-3)
+
+    robot_server._handle_udp_command = handle_and_check
+
+
+def loopback_only() -> None:
+    """Make franky-sim's servers bind loopback addresses only: it binds its UDP state socket to every
+    interface (0.0.0.0); here such a bind takes the loopback address its TCP server bound, and a bind to
+    any address outside 127.x raises."""
+    import socket
+    import types
+
+    import franky_sim.franka_server as franka_server
+
+    bound = ["127.0.0.1"]
+
+    class LoopbackSocket(socket.socket):
+        def bind(self, address: object) -> None:
+            if isinstance(address, tuple):
+                host = str(address[0])
+                if host in ("", "0.0.0.0"):
+                    address = (bound[0], *address[1:])
+                elif not host.startswith("127."):
+                    raise OSError(f"dexpush binds the simulated robot to loopback addresses only, not {host}")
+                else:
+                    bound[0] = host
+            super().bind(address)
+
+    shim = types.SimpleNamespace(**{k: getattr(socket, k) for k in dir(socket) if not k.startswith("__")})
+    shim.socket = LoopbackSocket
+    franka_server.socket = shim
+
+
+def _serve(xml: str, rho: float, tool_offset: float, origin: tuple[float, float], yaw: float,
+           hosts: tuple[str, ...], realtime: float, shared: object, conn: object) -> None:
+    """The child: build the scene, serve the robot, step at 1 kHz, answer the parent."""
+    try:
+        import mujoco
+        from franky_sim import SimulationServer
+        from franky_sim.mujoco_simulator import MujocoSimulator
+    except Exception as exc:
+        conn.send(("error", f"{type(exc).__name__}: {exc}"))
+        return
+    c, s = np.cos(yaw), np.sin(yaw)
+    R = np.array([[c, -s], [s, c]])
+    o = np.asarray(origin, dtype=np.float64)
+    try:
+        loopback_only()
+        sim = MujocoSimulator()
+        sim.init()
+        robot = sim.add_robot()
+        _graft(sim, xml, rho, tool_offset)
+        server = SimulationServer(sim, hostname_candidates=iter(hosts))
+        server.init()
+    except Exception as exc:
+        conn.send(("error", f"{type(exc).__name__}: {exc}"))
+        return
+    model, data = sim.model, sim.data
+    qadr = model.jnt_qposadr[model.joint("slider").id]
+    dadr = model.jnt_dofadr[model.joint("slider").id]
+    tip_site = model.site("pusher_tip").id
+    joints = [model.joint(f"robot0_fr3_joint{i}").id for i in range(1, 8)]
+    jq = model.jnt_qposadr[joints]
+    lo, hi = model.jnt_range[joints, 0], model.jnt_range[joints, 1]
+    checks = _Checks()
+    watch_commands(server.robot_servers[0], checks)
+
+    def publish() -> None:
+        q = data.qpos[qadr:qadr + 7]
+        w, x, y, z = q[3:7]
+        th = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)) - yaw
+        xy = R.T @ (q[:2] - o)
+        tip = data.site_xpos[tip_site]
+        shared[_POSE:_POSE + 3] = [xy[0], xy[1], np.angle(np.exp(1j * th))]
+        shared[_TIP:_TIP + 3] = [*(R.T @ (tip[:2] - o)), tip[2]]
+        shared[_TIME] = data.time
+        shared[_ACC], shared[_JERK] = checks.max_a, checks.max_j
+        shared[_OVER], shared[_MISSED] = checks.over, checks.missed
+
+    def place(pose: tuple[float, float, float]) -> None:
+        xy = R @ np.asarray(pose[:2]) + o
+        th = pose[2] + yaw
+        data.qpos[qadr:qadr + 7] = [xy[0], xy[1], 0.0, np.cos(th / 2), 0.0, 0.0, np.sin(th / 2)]
+        data.qvel[dadr:dadr + 6] = 0.0
+        mujoco.mj_forward(model, data)
+        publish()
+
+    publish()
+    conn.send(("ready", robot.hostname))
+    steps, busy = 0, 0.0
+    start = time.perf_counter()
+    try:
+        while True:
+            if steps % 10 == 0 and conn.poll():
+                message = conn.recv()
+                if message[0] == "close":
+                    break
+                try:
+                    if message[0] == "place":
+                        place(message[1])
+                    elif message[0] == "knock":
+                        pose = np.array(shared[_POSE:_POSE + 3])
+                        place((pose[0] + message[1][0], pose[1] + message[1][1], pose[2]))
+                    conn.send(("ok", None))
+                except Exception as exc:
+                    conn.send(("error", f"{type(exc).__name__}: {exc}"))
+            t0 = time.perf_counter()
+            server.run_once(realtime=False)
+            busy += time.perf_counter() - t0
+            steps += 1
+            q = data.qpos[jq]
+            shared[_JOINTS] += bool(np.any(q < lo) or np.any(q > hi))
+            publish()
+            now = time.perf_counter()
+            shared[_STEPS], shared[_BUSY], shared[_WALL] = steps, busy, now - start
+            if realtime > 0:              # paced: never ahead of the wall clock (scaled); behind, it runs flat out
+                ahead = start + steps * 1e-3 / realtime - now
+                if ahead > 0:
+                    time.sleep(ahead)
+    finally:
+        server.cleanup()
+        sim.cleanup()

@@ -1,0 +1,30 @@
+"""`dexpush robot` without the franka extra, and its bad input: one line, no traceback."""
+
+from __future__ import annotations
+
+import sys
+
+import pytest
+
+from dexpush.cli.main import main
+
+
+def test_without_the_franka_extra_it_says_what_to_install(monkeypatch: pytest.MonkeyPatch,
+                                                         capsys: pytest.CaptureFixture) -> None:
+    monkeypatch.setitem(sys.modules, "franky_sim", None)      # as if not installed
+    monkeypatch.setitem(sys.modules, "franky", None)
+    assert main(["robot", "--sim", "--max-steps", "2", "--quiet", "--no-animation", "--out", "/tmp/dexpush-x"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "pip install 'dexpush[franka]'" in err[0]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--robot", "192.0.2.1"], "tracker"),
+    (["--camera", "rendered"], "noise-model camera"),
+    (["--workspace", "0,0,0,1"], "workspace"),
+    (["--dynamics-factor", "2"], "dynamics_factor"),
+])
+def test_bad_robot_input_is_one_line(argv: list[str], message: str, capsys: pytest.CaptureFixture) -> None:
+    assert main(["robot", *argv, "--quiet", "--no-animation", "--out", "/tmp/dexpush-x"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err

@@ -1,0 +1,165 @@
+"""The robot side without a robot: the watchdog, the robot plant's clock and deadlines, and the driver
+settings' frames, with a fake driver (a point that follows its command for ``command_hold_s``)."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from dexpush.robot.driver import DriverSettings, PusherDriver, RobotPlant
+from dexpush.robot.watchdog import Watchdog
+
+
+class FakeDriver:
+    """A pusher that moves at the commanded velocity until its hold runs out; the clock is the wall clock."""
+
+    def __init__(self, hold_s: float = 0.15) -> None:
+        self.settings = DriverSettings(command_hold_s=hold_s)
+        self._lock = threading.Lock()
+        self._t0 = time.monotonic()
+        self._p, self._v, self._until, self._at = np.zeros(2), np.zeros(2), 0.0, 0.0
+        self.stops = 0
+
+    def _advance(self) -> None:
+        now = self.time()
+        moving = min(now, self._until) - self._at
+        if moving > 0:
+            self._p = self._p + self._v * moving
+        self._at = now
+
+    def time(self) -> float:
+        return time.monotonic() - self._t0
+
+    def move_to(self, xy: object) -> None:
+        with self._lock:
+            self._advance()
+            self._p, self._v = np.asarray(xy, float), np.zeros(2)
+
+    def send(self, velocity: object) -> None:
+        with self._lock:
+            self._advance()
+            self._v, self._until = np.asarray(velocity, float), self.time() + self.settings.command_hold_s
+
+    def stop(self) -> None:
+        with self._lock:
+            self._advance()
+            self._until = self._at
+            self.stops += 1
+
+    def moving(self) -> bool:
+        with self._lock:
+            return self.time() < self._until and bool(np.any(self._v))
+
+    def tip(self) -> np.ndarray:
+        with self._lock:
+            self._advance()
+            return np.array([*self._p, 0.004])
+
+    def recover(self) -> bool:
+        return True
+
+    def close(self) -> None:
+        self.stop()
+
+
+class StillObject:
+    def __init__(self) -> None:
+        self.pose = np.zeros(3)
+
+    def object_pose(self) -> np.ndarray:
+        return self.pose
+
+    def place(self, pose: object) -> None:
+        self.pose = np.asarray(pose, float)
+
+
+def test_the_fake_is_a_driver() -> None:
+    assert isinstance(FakeDriver(), PusherDriver)
+
+
+def test_the_watchdog_stops_within_a_tenth_of_a_second_of_its_deadline_and_rearms() -> None:
+    stopped: list[float] = []
+    with Watchdog(0.2, lambda: stopped.append(time.monotonic())) as dog:
+        assert not stopped                     # not armed before the first feed
+        t0 = time.monotonic()
+        dog.feed()
+        time.sleep(0.45)
+        assert len(stopped) == 1 and 0.2 <= stopped[0] - t0 <= 0.3
+        time.sleep(0.3)
+        assert len(stopped) == 1               # once per silence
+        for _ in range(10):                    # fed: no stop
+            dog.feed()
+            time.sleep(0.05)
+        assert len(stopped) == 1
+        time.sleep(0.35)
+        assert len(stopped) == 2 and dog.trips == 2
+        dog.feed()
+        dog.pause()
+        time.sleep(0.35)
+        assert len(stopped) == 2               # paused: nothing to watch
+
+
+def test_a_stop_that_raises_does_not_kill_the_watchdog() -> None:
+    calls = []
+
+    def bad_stop() -> None:
+        calls.append(1)
+        raise ConnectionError("robot gone")
+
+    with Watchdog(0.05, bad_stop) as dog:
+        dog.feed()
+        time.sleep(0.15)
+        dog.feed()
+        time.sleep(0.15)
+    assert len(calls) == 2 and "ConnectionError: robot gone" in dog.errors[0]
+
+
+def test_the_plant_steps_on_the_robot_clock_and_counts_missed_deadlines() -> None:
+    driver = FakeDriver()
+    with RobotPlant(driver, StillObject(), watchdog_s=None) as plant:
+        obs = plant.reset((0.0, 0.0, 0.0), (-0.1, 0.0))
+        assert obs.time == 0.0 and np.allclose(obs.pusher_xy, (-0.1, 0.0))
+        dt = 0.04
+        for k in range(5):
+            obs = plant.step((0.05, 0.0), dt)
+            assert obs.time >= (k + 1) * dt - 1e-9
+        assert plant.late_steps == 0
+        time.sleep(0.1)                        # the planner overran its deadline
+        plant.step((0.05, 0.0), dt)
+        assert plant.late_steps == 1
+        assert obs.pusher_xy[0] > -0.1
+    assert driver.stops >= 1                   # closing stops the robot
+
+
+def test_a_hung_loop_is_stopped_by_the_watchdog() -> None:
+    driver = FakeDriver(hold_s=2.0)            # a long hold: only the watchdog can stop it in time
+    with RobotPlant(driver, StillObject(), watchdog_s=0.1) as plant:
+        plant.reset((0.0, 0.0, 0.0), (-0.1, 0.0))
+        plant.step((0.05, 0.0), 0.04)
+        t0 = time.monotonic()
+        while driver.moving() and time.monotonic() - t0 < 1.0:
+            time.sleep(0.005)
+        assert not driver.moving() and time.monotonic() - t0 < 0.2
+        assert plant.watchdog_stops == 1
+
+
+def test_the_table_frame_round_trips_and_faces_the_task() -> None:
+    s = DriverSettings(table_origin=(0.5, 0.1), table_yaw=0.7)
+    p = np.array([[0.1, -0.2], [0.3, 0.05]])
+    assert np.allclose(s.to_table(s.to_base(p)), p)
+    f = DriverSettings().facing((0.0, 0.0), (0.6, 0.3))
+    a, b = f.to_base((0.0, 0.0)), f.to_base((0.6, 0.3))
+    assert np.allclose((a + b) / 2, (0.52, 0.0))
+    assert abs(a[0] - b[0]) < 1e-9             # start to goal runs across the robot's front
+    bx, by, r0, r1 = f.reach_in_table()
+    assert np.allclose(f.to_base((bx, by)), 0.0) and (r0, r1) == f.reach
+
+
+@pytest.mark.parametrize("bad", [dict(dynamics_factor=1.5), dict(command_hold_s=0), dict(reach=(0.8, 0.3)),
+                                 dict(tip_height=-0.01)])
+def test_bad_driver_settings_are_refused(bad: dict) -> None:
+    with pytest.raises(ValueError):
+        DriverSettings(**bad)
