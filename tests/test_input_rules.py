@@ -426,7 +426,12 @@ def test_fit_is_the_same_far_from_the_origin_and_says_when_it_explains_little(tm
         assert main(["fit", str(log), "--shape", "rect", "--quiet", "--out", str(tmp_path / name)]) == 0
         fits[name] = json.loads((tmp_path / name / "fit.json").read_text())
         capsys.readouterr()
-    assert fits["far"]["lambda"] == pytest.approx(fits["near"]["lambda"], rel=1e-3, abs=1e-4)
+    # noise-free pushes leave the loss nearly flat along β (the fit's error is 0 mm either way), so the two
+    # fits, whose inputs differ by float64 rounding, stop at β within 1 %; the centre of friction agrees to 0.1 mm
+    near, far = fits["near"]["lambda"], fits["far"]["lambda"]
+    assert far[0] == pytest.approx(near[0], rel=1e-2)
+    assert far[1:] == pytest.approx(near[1:], abs=1e-4)
+    assert fits["far"]["one_step_error_mm"] == pytest.approx(fits["near"]["one_step_error_mm"], abs=0.01)
     assert fits["near"]["explains_motion"]
     swapped = _log(tmp_path / "swapped.csv", _push_rows(), header="t,y,x,theta,px,py")
     code = main(["fit", str(swapped), "--shape", "tee", "--quiet", "--out", str(tmp_path / "s")])
