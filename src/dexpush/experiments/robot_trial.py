@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive
+from dexpush.common.se2 import rotate
 from dexpush.control.controller import ControllerSettings
 from dexpush.experiments.methods import Method, get_method
 from dexpush.experiments.records import Condition, Episode, make_episode
@@ -159,11 +160,8 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
 
 def _start_at(pose: np.ndarray, task_pose: np.ndarray, task_pusher: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The start from the object's pose ``pose``: the pusher where the task's start puts it relative to the object."""
-    c, s = np.cos(task_pose[2]), np.sin(task_pose[2])
-    d = np.asarray(task_pusher) - task_pose[:2]
-    local = np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
-    c, s = np.cos(pose[2]), np.sin(pose[2])
-    return pose, pose[:2] + np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
+    local = rotate(np.asarray(task_pusher) - task_pose[:2], -task_pose[2])
+    return pose, pose[:2] + rotate(local, pose[2])
 
 
 def tracking_error(states: np.ndarray, commands: np.ndarray, control_period: float) -> np.ndarray:

@@ -16,6 +16,7 @@ import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive, checked_vector
 from dexpush.common.interfaces import Observation
+from dexpush.common.se2 import rotate, wrap_angle
 from dexpush.robot.watchdog import Watchdog
 
 __all__ = ["DriverSettings", "PoseSource", "PusherDriver", "RobotError", "RobotPlant"]
@@ -67,12 +68,9 @@ class DriverSettings:
         reach) and the direction from start to goal across the robot's front (along the base's y axis)."""
         a, b = checked_vector("start", start, 2), checked_vector("goal", goal, 2)
         d = b - a
-        yaw = np.pi / 2 - float(np.arctan2(d[1], d[0])) if np.hypot(*d) > 0.05 else 0.0
-        c, s = np.cos(yaw), np.sin(yaw)
-        mid = (a + b) / 2
-        origin = np.asarray(centre, dtype=np.float64) - np.array([c * mid[0] - s * mid[1], s * mid[0] + c * mid[1]])
-        return replace(self, table_origin=(float(origin[0]), float(origin[1])),
-                       table_yaw=float(np.angle(np.exp(1j * yaw))))
+        yaw = float(wrap_angle(np.pi / 2 - np.arctan2(d[1], d[0]))) if np.hypot(*d) > 0.05 else 0.0
+        origin = np.asarray(centre, dtype=np.float64) - rotate((a + b) / 2, yaw)
+        return replace(self, table_origin=(float(origin[0]), float(origin[1])), table_yaw=yaw)
 
     def reach_in_table(self) -> tuple[float, float, float, float]:
         """The reach limit for :class:`dexpush.robot.safety.SafetySettings`: the base's axis in the table
@@ -82,21 +80,15 @@ class DriverSettings:
 
     def to_base(self, xy: object) -> np.ndarray:
         """Table-frame point(s) (..., 2) in the base frame."""
-        c, s = np.cos(self.table_yaw), np.sin(self.table_yaw)
-        p = np.asarray(xy, dtype=np.float64)
-        return np.stack([c * p[..., 0] - s * p[..., 1], s * p[..., 0] + c * p[..., 1]], -1) + self.table_origin
+        return self.vector_to_base(xy) + self.table_origin
 
     def to_table(self, xy: object) -> np.ndarray:
         """Base-frame point(s) (..., 2) in the table frame."""
-        c, s = np.cos(self.table_yaw), np.sin(self.table_yaw)
-        p = np.asarray(xy, dtype=np.float64) - self.table_origin
-        return np.stack([c * p[..., 0] + s * p[..., 1], -s * p[..., 0] + c * p[..., 1]], -1)
+        return rotate(np.asarray(xy, dtype=np.float64) - self.table_origin, -self.table_yaw)
 
     def vector_to_base(self, v: object) -> np.ndarray:
-        """A table-frame velocity (2,) in the base frame."""
-        c, s = np.cos(self.table_yaw), np.sin(self.table_yaw)
-        v = np.asarray(v, dtype=np.float64)
-        return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+        """Table-frame vector(s) (..., 2), e.g. a velocity, in the base frame."""
+        return rotate(np.asarray(v, dtype=np.float64), self.table_yaw)
 
 
 @runtime_checkable

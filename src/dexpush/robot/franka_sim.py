@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dexpush.common.checks import check_positive
+from dexpush.common.se2 import wrap_angle
 from dexpush.model.shape import Shape
 from dexpush.robot.driver import DriverSettings
 from dexpush.world.physics_plant import PhysicsSettings, SceneExtras, scene_xml
@@ -118,8 +119,8 @@ class FrankaSim:
         d = self.settings.driver
         rho = float(shape.pusher_radius * self.settings.physics.pusher_radius_scale)
         self._proc = ctx.Process(target=_serve, name="franky-sim", daemon=True,
-                                 args=(self._xml, rho, d.tool_offset, tuple(d.table_origin), float(d.table_yaw),
-                                       self.settings.hosts, float(self.settings.realtime), self._shared, child))
+                                 args=(self._xml, rho, d, self.settings.hosts, float(self.settings.realtime),
+                                       self._shared, child))
         self.address: str | None = None
 
     def start(self) -> FrankaSim:
@@ -313,8 +314,8 @@ def loopback_only() -> None:
     franka_server.socket = shim
 
 
-def _serve(xml: str, rho: float, tool_offset: float, origin: tuple[float, float], yaw: float,
-           hosts: tuple[str, ...], realtime: float, shared: object, conn: object) -> None:
+def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...], realtime: float, shared: object,
+           conn: object) -> None:
     """The child: build the scene, serve the robot, step at 1 kHz, answer the parent."""
     try:
         import mujoco
@@ -323,15 +324,13 @@ def _serve(xml: str, rho: float, tool_offset: float, origin: tuple[float, float]
     except Exception as exc:
         conn.send(("error", f"{type(exc).__name__}: {exc}"))
         return
-    c, s = np.cos(yaw), np.sin(yaw)
-    R = np.array([[c, -s], [s, c]])
-    o = np.asarray(origin, dtype=np.float64)
+    yaw = frames.table_yaw
     try:
         loopback_only()
         sim = MujocoSimulator()
         sim.init()
         robot = sim.add_robot()
-        _graft(sim, xml, rho, tool_offset)
+        _graft(sim, xml, rho, frames.tool_offset)
         server = SimulationServer(sim, hostname_candidates=iter(hosts))
         server.init()
     except Exception as exc:
@@ -351,16 +350,16 @@ def _serve(xml: str, rho: float, tool_offset: float, origin: tuple[float, float]
         q = data.qpos[qadr:qadr + 7]
         w, x, y, z = q[3:7]
         th = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)) - yaw
-        xy = R.T @ (q[:2] - o)
+        xy = frames.to_table(q[:2])
         tip = data.site_xpos[tip_site]
-        shared[_POSE:_POSE + 3] = [xy[0], xy[1], np.angle(np.exp(1j * th))]
-        shared[_TIP:_TIP + 3] = [*(R.T @ (tip[:2] - o)), tip[2]]
+        shared[_POSE:_POSE + 3] = [xy[0], xy[1], wrap_angle(th)]
+        shared[_TIP:_TIP + 3] = [*frames.to_table(tip[:2]), tip[2]]
         shared[_TIME] = data.time
         shared[_ACC], shared[_JERK] = checks.max_a, checks.max_j
         shared[_OVER], shared[_MISSED] = checks.over, checks.missed
 
     def place(pose: tuple[float, float, float]) -> None:
-        xy = R @ np.asarray(pose[:2]) + o
+        xy = frames.to_base(pose[:2])
         th = pose[2] + yaw
         data.qpos[qadr:qadr + 7] = [xy[0], xy[1], 0.0, np.cos(th / 2), 0.0, 0.0, np.sin(th / 2)]
         data.qvel[dadr:dadr + 6] = 0.0

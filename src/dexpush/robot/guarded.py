@@ -13,6 +13,7 @@ import numpy as np
 
 from dexpush.common.checks import check_positive
 from dexpush.common.interfaces import Controller, Observation
+from dexpush.common.se2 import wrap_angle
 from dexpush.robot.safety import SafetySettings, safe_velocity
 
 __all__ = ["FrameGuard", "GuardedController"]
@@ -44,7 +45,7 @@ class FrameGuard:
         dt = abs(float(b.time) - float(a.time)) if slack else 0.0
         qa, qb = np.asarray(a.object_pose, float), np.asarray(b.object_pose, float)
         d = float(np.hypot(*(qb[:2] - qa[:2])))
-        dth = abs(float(np.angle(np.exp(1j * (qb[2] - qa[2])))))
+        dth = abs(float(wrap_angle(qb[2] - qa[2])))
         return d <= self.jump_m + self.speed_m_s * dt and dth <= self.jump_rad + self.spin_rad_s * dt
 
     def __call__(self, frame: Observation | None) -> Observation | None:
