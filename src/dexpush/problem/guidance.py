@@ -1,0 +1,181 @@
+"""Global guidance: the object's cost-to-go round the obstacles (:class:`CostToGo`, :func:`cost_to_go`).
+
+MPPI samples a few seconds ahead and follows the gradient of eq. (9) within them; behind an obstacle
+the straight-line goal distance ‖p − g‖ has a local minimum where no sample finds the way round. The
+cost-to-go V(p) is the length of the shortest path of the object's reference point from p to the goal
+through the positions where the footprint fits in some heading, computed once per problem:
+
+1. The obstacles' signed distance D (discs, convex polygons, the workspace boundary) on a grid of
+   spacing h (``CostWeights.guidance_cell_m``).
+2. Free positions: p is free when, for one of :data:`HEADINGS` headings θ, every sample q of the
+   footprint (its outline every h/2 and its inside every h) has D(p + R(θ)q) > the planner's margin
+   (a min over shifted copies of the grid: an erosion).
+3. V on the free positions by Dijkstra from the goal over a 16-neighbour grid (its path lengths are at
+   most :data:`GRID_STRETCH` longer than straight lines); elsewhere the nearest reachable node's V plus
+   the distance to it, so that V is finite everywhere and points back into free space.
+
+The cost (:func:`dexpush.problem.cost.guided_length_sq`) uses ℓ = max(‖p − g‖, (V(p) − h)/(1 + κ)), κ =
+:data:`GRID_STRETCH`: ℓ is the straight-line distance wherever the way to the goal is straight and free
+(so the cost near the goal, and in the open, is eq. (9)'s), and the path round otherwise.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from dexpush.model.polygons import inside_polygon
+from dexpush.problem.regions import point_gap
+
+__all__ = ["GRID_STRETCH", "HEADINGS", "CostToGo", "cost_to_go"]
+
+#: the headings tried for a free position (every 360°/HEADINGS)
+HEADINGS = 16
+#: the 16-neighbour grid's worst stretch of a straight line, interpolation included (2.75 % measured over
+#: every direction at 0.4 m; tests/test_guidance.py), rounded up
+GRID_STRETCH = 0.03
+_MOVES = np.array([(1, 0), (0, 1), (-1, 0), (0, -1), (1, 1), (-1, 1), (-1, -1), (1, -1),
+                   (2, 1), (1, 2), (-1, 2), (-2, 1), (-2, -1), (-1, -2), (1, -2), (2, -1)])
+
+
+@dataclass(frozen=True, eq=False)
+class CostToGo:
+    """V on a grid: ``values[i, j]`` at the node ``lo + (i, j)·cell`` (m); ``free`` marks the nodes where the
+    footprint fits, ``reached`` those of them connected to the goal; ``build_s`` is how long
+    :func:`cost_to_go` took."""
+
+    values: np.ndarray
+    free: np.ndarray
+    reached: np.ndarray
+    lo: np.ndarray
+    cell: float
+    build_s: float
+
+    def shifted(self, origin: np.ndarray) -> CostToGo:
+        """The same field in a frame whose origin is at ``origin`` (x, y, ...) of this one."""
+        return CostToGo(self.values, self.free, self.reached, self.lo - np.asarray(origin, np.float64)[:2],
+                        self.cell, self.build_s)
+
+    def connects(self, point: object) -> bool:
+        """Whether the footprint fits at ``point`` (x, y) in some heading and a free path leads from there
+        to the goal (at the nearest node)."""
+        i = np.round((np.asarray(point, np.float64)[:2] - self.lo) / self.cell).astype(int)
+        return bool(np.all((i >= 0) & (i < self.reached.shape)) and self.reached[tuple(i)])
+
+    def at(self, points: np.ndarray) -> np.ndarray:
+        """V at points (..., 2) (bilinear between nodes; beyond the grid, plus the distance to it)."""
+        p = np.asarray(points, np.float64)
+        n = np.array(self.values.shape) - 1
+        u = (p - self.lo) / self.cell
+        uc = np.clip(u, 0, n)
+        i = np.minimum(np.floor(uc).astype(int), n - 1)
+        f = uc - i
+        v = self.values
+        val = ((1 - f[..., 0]) * (1 - f[..., 1]) * v[i[..., 0], i[..., 1]]
+               + f[..., 0] * (1 - f[..., 1]) * v[i[..., 0] + 1, i[..., 1]]
+               + (1 - f[..., 0]) * f[..., 1] * v[i[..., 0], i[..., 1] + 1]
+               + f[..., 0] * f[..., 1] * v[i[..., 0] + 1, i[..., 1] + 1])
+        return val + np.hypot(*np.moveaxis(u - uc, -1, 0)) * self.cell
+
+
+def _footprint_samples(polygons: tuple[np.ndarray, ...], cell: float) -> np.ndarray:
+    """Points (n, 2) in {B}: each polygon's outline every cell/2 and its inside every cell."""
+    pts = []
+    for p in polygons:
+        for a, b in zip(p, np.roll(p, -1, axis=0), strict=True):
+            k = max(int(np.ceil(np.hypot(*(b - a)) / (cell / 2))), 1)
+            pts.append(a + (b - a) * (np.arange(k) / k)[:, None])
+    lo, hi = np.min(np.concatenate(polygons), 0), np.max(np.concatenate(polygons), 0)
+    gx, gy = np.meshgrid(np.arange(lo[0], hi[0], cell), np.arange(lo[1], hi[1], cell), indexing="ij")
+    grid = np.stack([gx.ravel(), gy.ravel()], -1)
+    inside = np.zeros(len(grid), bool)
+    for p in polygons:
+        inside |= inside_polygon(grid, p).reshape(-1).astype(bool)
+    return np.concatenate([*pts, grid[inside]])
+
+
+def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, discs: np.ndarray,
+               polygons: tuple[np.ndarray, ...], workspace: np.ndarray | None, margin: float,
+               cell: float = 0.02) -> CostToGo:
+    """The cost-to-go of the module docstring for a footprint (its polygons in {B}, ``reach`` its largest
+    distance from the reference) pushed to ``goal`` past ``discs`` (M, 3), convex ``polygons`` and inside
+    the convex ``workspace`` corners (None: unbounded), keeping ``margin`` (m) clear, on a grid of ``cell``
+    (m). The grid spans the workspace, or the goal and the obstacles with room for the footprint round them."""
+    t0 = time.perf_counter()
+    g = np.asarray(goal, np.float64)[:2]
+    if workspace is not None:
+        lo, hi = np.min(workspace, 0), np.max(workspace, 0)
+    else:
+        pts = [g[None], *(p for p in polygons)]
+        if len(discs):
+            pts += [discs[:, :2] - discs[:, 2:3], discs[:, :2] + discs[:, 2:3]]
+        pts = np.concatenate(pts)
+        pad = 2 * reach + 0.1
+        lo, hi = pts.min(0) - pad, pts.max(0) + pad
+    lo = g - np.ceil((g - lo) / cell - 1e-9) * cell           # the goal is a node
+    shape = np.maximum(np.ceil((hi - lo) / cell - 1e-9).astype(int) + 1, 2)
+    extra = int(np.ceil(reach / cell)) + 1                 # room for the footprint's samples beyond the grid
+    ix = np.arange(-extra, shape[0] + extra) * cell + lo[0]
+    iy = np.arange(-extra, shape[1] + extra) * cell + lo[1]
+    nodes = np.stack(np.meshgrid(ix, iy, indexing="ij"), -1)
+    d = np.full(nodes.shape[:2], np.inf)
+    for cx, cy, r in discs:
+        d = np.minimum(d, np.hypot(nodes[..., 0] - cx, nodes[..., 1] - cy) - r)
+    for p in polygons:
+        d = np.minimum(d, point_gap(nodes, p))
+    if workspace is not None:
+        d = np.minimum(d, -point_gap(nodes, workspace))
+    clear = d > margin
+    samples = _footprint_samples(footprint, cell)
+    free = np.zeros(tuple(shape), bool)
+    for k in range(HEADINGS):
+        th = 2 * np.pi * k / HEADINGS
+        c, s = np.cos(th), np.sin(th)
+        offsets = np.unique(np.round(samples @ np.array([[c, s], [-s, c]]) / cell).astype(int), axis=0)
+        fits = np.ones(tuple(shape), bool)
+        for di, dj in offsets:
+            fits &= clear[extra + di:extra + di + shape[0], extra + dj:extra + dj + shape[1]]
+        free |= fits
+    goal_node = tuple(np.round((g - lo) / cell).astype(int))
+    free[goal_node] = True
+    values, reached = _geodesic(free, goal_node, cell)
+    return CostToGo(values.astype(np.float32), free, reached, lo.astype(np.float64), float(cell),
+                    time.perf_counter() - t0)
+
+
+def _window(free: np.ndarray, di: int, dj: int, oi: int = 0, oj: int = 0) -> np.ndarray:
+    """``free`` at the nodes (i + oi, j + oj) for every start node (i, j) of a move (di, dj) that stays on
+    the grid."""
+    nx, ny = free.shape
+    i0, j0 = max(0, -di), max(0, -dj)
+    return free[i0 + oi:i0 + oi + nx - abs(di), j0 + oj:j0 + oj + ny - abs(dj)]
+
+
+def _geodesic(free: np.ndarray, source: tuple[int, int], cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """Path lengths (m) from ``source`` over the free nodes of a 16-neighbour grid (a move's end nodes
+    and the nodes it passes between must be free: no cutting a corner); the other nodes get the
+    nearest reachable node's length plus the straight distance to it. Also the reached nodes."""
+    nx, ny = free.shape
+    index = np.arange(nx * ny).reshape(nx, ny)
+    rows, cols, lengths = [], [], []
+    for di, dj in _MOVES:
+        ok = _window(free, di, dj) & _window(free, di, dj, di, dj)
+        if di and dj:     # a diagonal passes (i + si, j) and (i, j + sj); a knight's move (i + si, j + sj) too
+            si, sj = int(np.sign(di)), int(np.sign(dj))
+            for oi, oj in {(si, 0), (0, sj), (si, sj), (di - si, dj - sj)} - {(0, 0), (di, dj)}:
+                ok &= _window(free, di, dj, oi, oj)
+        src = _window(index, di, dj)[ok]
+        rows.append(src)
+        cols.append(src + di * ny + dj)
+        lengths.append(np.full(src.shape, np.hypot(di, dj) * cell))
+    graph = coo_matrix((np.concatenate(lengths), (np.concatenate(rows), np.concatenate(cols))),
+                       shape=(nx * ny, nx * ny)).tocsr()
+    dist = dijkstra(graph, indices=index[source]).reshape(nx, ny)
+    reached = np.isfinite(dist)
+    steps, (ii, jj) = ndimage.distance_transform_edt(~reached, return_indices=True)
+    return np.where(reached, dist, dist[ii, jj] + steps * cell), reached
