@@ -22,12 +22,13 @@ import jax.numpy as jnp
 
 from dexpush.common import fastmath
 from dexpush.model.cgvmm import State, components
-from dexpush.problem.obstacles import clearance, obstacle_distances, overlaps
+from dexpush.problem.guidance import GRID_STRETCH
+from dexpush.problem.obstacles import clearance, obstacle_distances, overlaps, region_gaps
 from dexpush.problem.scene import Scene
 from dexpush.problem.weights import CostWeights
 
-__all__ = ["MIN_PLAN_MARGIN_M", "detour_length_sq", "goal_distance_sq", "obstacle_cost", "plan_margin",
-           "running_cost", "terminal_cost"]
+__all__ = ["MIN_PLAN_MARGIN_M", "detour_length_sq", "goal_distance_sq", "guided_length_sq", "obstacle_cost",
+           "plan_margin", "running_cost", "terminal_cost"]
 
 
 def _distance_sq(x: jnp.ndarray, y: jnp.ndarray, th: jnp.ndarray, goal: jnp.ndarray, c: float) -> jnp.ndarray:
@@ -80,14 +81,44 @@ def detour_length_sq(x: jnp.ndarray, y: jnp.ndarray, scene: Scene) -> jnp.ndarra
 
 
 
+def guided_length_sq(x: jnp.ndarray, y: jnp.ndarray, scene: Scene) -> jnp.ndarray:
+    """ℓ², ℓ = max(‖p − g‖, (V(p) − h)/(1 + κ)): the goal distance along the cost-to-go V of
+    :mod:`dexpush.problem.guidance` (``scene.guide``; h its grid spacing, κ = ``GRID_STRETCH``), which
+    is the straight-line distance wherever the straight way is free and the way round otherwise.
+
+    V is bilinear between the grid's nodes and, beyond the grid, V at its nearest edge point (there the
+    straight distance, which grows, takes over). Four gathers per state: the same work for any number of
+    obstacles.
+    """
+    v = scene.guide
+    n_x, n_y = v.shape
+    h = scene.guide_cell
+    u = jnp.clip((x - scene.guide_lo[0]) / h, 0.0, n_x - 1.0)
+    w = jnp.clip((y - scene.guide_lo[1]) / h, 0.0, n_y - 1.0)
+    i = jnp.minimum(jnp.floor(u), n_x - 2.0)
+    j = jnp.minimum(jnp.floor(w), n_y - 2.0)
+    fu, fw = u - i, w - j
+    k = i.astype(jnp.int32) * n_y + j.astype(jnp.int32)
+    flat = v.reshape(-1)
+    val = ((1 - fu) * ((1 - fw) * flat[k] + fw * flat[k + 1])
+           + fu * ((1 - fw) * flat[k + n_y] + fw * flat[k + n_y + 1]))
+    dx, dy = x - scene.goal[0], y - scene.goal[1]
+    ell = jnp.maximum((val - h) / (1.0 + GRID_STRETCH), 0.0)
+    return jnp.maximum(dx * dx + dy * dy, ell * ell)
+
+
 def goal_distance_sq(x: State, scene: Scene, c: float) -> jnp.ndarray:
     """d²(q_sb, q_g) of eq. (9b–9c) for states x: the decoupled distance, whose position part is
-    ℓ² (:func:`detour_length_sq`) when the scene has detour discs."""
+    ℓ² along the cost-to-go (:func:`guided_length_sq`) when the scene has one, round the detour discs
+    (:func:`detour_length_sq`) when it has those, and straight otherwise."""
     xb, yb, th, *_ = components(x)
     return _goal_distance_sq(xb, yb, th, scene, c)
 
 
-def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: Scene, c: float) -> jnp.ndarray:
+def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: Scene, c: float,
+                      guided: bool = True) -> jnp.ndarray:
+    if guided and scene.guide is not None and scene.guide.shape[0] > 0:
+        return guided_length_sq(xb, yb, scene) + c * (1.0 - fastmath.cos(th - scene.goal[2]))
     if scene.detour_radius is None or scene.detour_radius.shape[0] == 0:
         return _distance_sq(xb, yb, th, scene.goal, c)
     return detour_length_sq(xb, yb, scene) + c * (1.0 - fastmath.cos(th - scene.goal[2]))
@@ -103,10 +134,10 @@ def plan_margin(x: State, scene: Scene, w: CostWeights, extra: jnp.ndarray | flo
     state's own clearance where that is less (at least :data:`MIN_PLAN_MARGIN_M`), so that a plan
     from inside the margin is charged only for coming nearer than it already is. Unchanged without
     ``C_margin`` (the binary margin) or without obstacles."""
-    if w.C_margin is None or w.obstacle_margin_m <= 0 or scene.obstacles.shape[0] == 0:
+    if w.C_margin is None or w.obstacle_margin_m <= 0 or not scene.has_obstacles:
         return scene
     m = jnp.clip(clearance(x, scene), MIN_PLAN_MARGIN_M, w.obstacle_margin_m + extra)
-    return dataclasses.replace(scene, margin=m.astype(scene.obstacles.dtype))
+    return dataclasses.replace(scene, margin=m.astype(scene.margin.dtype))
 
 
 def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
@@ -133,6 +164,11 @@ def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
         if graded:
             gap = jnp.minimum(jnp.sqrt(d2) - r, jnp.sqrt(pd2) - r - rp)
             depth = depth + jnp.clip(1.0 - gap / scene.margin, 0.0, 1.0)
+    for body, pusher in region_gaps(x, scene):       # polygons and the workspace: separating-axis gaps
+        gap = jnp.minimum(body, pusher)
+        touch = touch | (gap < (0.0 if graded else w.obstacle_margin_m))
+        if graded:
+            depth = depth + jnp.clip(1.0 - gap / scene.margin, 0.0, 1.0)
     cost = jnp.where(touch, w.C_pen, 0.0)
     return cost + w.C_margin * depth if graded else cost
 
@@ -140,10 +176,10 @@ def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
 def running_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
     """l(x) + P(x) of eq. (9c–9e) (P: :func:`obstacle_cost`) for states x ((..., 5) array or 5-tuple)."""
     xb, yb, th, xc, yc = components(x)
-    d2 = _goal_distance_sq(xb, yb, th, scene, w.c)
+    d2 = _goal_distance_sq(xb, yb, th, scene, w.c, guided=False)
     gap = jnp.sqrt((xc - xb) ** 2 + (yc - yb) ** 2)
     cost = w.q_r1 * d2 + w.q_r2 * jnp.maximum(gap - scene.r_s, 0.0)
-    if scene.obstacles.shape[0] == 0:
+    if not scene.has_obstacles:
         return cost
     return cost + obstacle_cost(x, scene, w)
 

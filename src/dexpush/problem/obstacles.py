@@ -1,12 +1,26 @@
-"""Where the object and the pusher are against disc obstacles: the collision test of eq. (9e) and
-Task III (:func:`collides`) and the gap to the nearest obstacle (:func:`clearance`).
+"""Where the object and the pusher are against the obstacles and the workspace boundary: the
+collision test of eq. (9e) (:func:`collides`) and the gap to the nearest obstacle (:func:`clearance`).
 
-Obstacles are discs ``(c_x, c_y, radius)``. A touch is the object's footprint (not inflated) or
-the pusher disc overlapping a disc (docs/conventions.md#controller); the planner's cost keeps a
-margin beyond it (:mod:`dexpush.problem.cost`), the judge of a trial uses the discs as given.
+Obstacles are discs ``(c_x, c_y, radius)`` and convex polygons (boxes, walls; :mod:`dexpush.problem.regions`);
+the workspace is a convex polygon that footprint and pusher must stay inside. A touch is the
+object's footprint (not inflated) or the pusher disc overlapping an obstacle, or either leaving
+the workspace (docs/conventions.md#controller); the planner's cost keeps a margin beyond it
+(:mod:`dexpush.problem.cost`), the judge of a trial uses the obstacles as given.
+
+Gaps to discs are exact. Gaps to polygons are separating-axis gaps: for two convex polygons A and B,
+
+    gap(A, B) = max over the edge normals n of A and of B of [min_{a∈A} n·a − max_{b∈B} n·b]
+
+which is negative exactly when they overlap (then −gap is the penetration depth), and otherwise the
+distance where the nearest features are a corner and an edge, and less than it where they are two
+corners: never more than the true gap. The footprint's gap is the least over its convex pieces; the
+pusher's is the same with a point, less its radius. A workspace gap is exact: the least of
+o − n·v over its half-planes and the footprint's corners v.
 """
 
 from __future__ import annotations
+
+import functools
 
 import jax
 import jax.numpy as jnp
@@ -15,7 +29,13 @@ from dexpush.common import fastmath
 from dexpush.model.cgvmm import State, components
 from dexpush.problem.scene import Scene
 
-__all__ = ["clearance", "clearance_jit", "collides", "collides_jit", "obstacle_distances", "overlaps"]
+#: footprint pieces (and outlines) with at most this many corners have their polygon and workspace gaps
+#: unrolled into elementwise code (the cost's scenes); more (the judge's ellipse) are reduced as arrays
+UNROLL_CORNERS = 32
+
+__all__ = ["UNROLL_CORNERS", "bound_gaps", "clearance", "clearance_jit", "collides", "collides_jit",
+           "obstacle_distances", "overlaps",
+           "polygon_gaps", "region_gaps"]
 
 
 def obstacle_distances(x: State, scene: Scene):
@@ -27,11 +47,18 @@ def obstacle_distances(x: State, scene: Scene):
     xb, yb, th, xc, yc = components(x)
     s, c = fastmath.sincos(th)
     a, b = scene.edge_a, scene.edge_b
-    # obstacles and edges are few and static: unrolled, so XLA fuses it all (no reductions)
+    # obstacles and edges are few and static: unrolled, so XLA fuses it all (no reductions); long
+    # outlines (the judge's ellipse) are reduced as arrays, which compile in seconds rather than minutes
+    vectorised = a.shape[0] > UNROLL_CORNERS
     for m in range(scene.obstacles.shape[0]):
         ox, oy, r = scene.obstacles[m, 0], scene.obstacles[m, 1], scene.obstacles[m, 2]
         dx, dy = ox - xb, oy - yb
         px, py = c * dx + s * dy, -s * dx + c * dy                   # centre in {B}
+        pdx, pdy = xc - ox, yc - oy
+        if vectorised:
+            d2, inside = _edge_distances(px[..., None], py[..., None], a, b)
+            yield m, r, d2, inside, pdx * pdx + pdy * pdy
+            continue
         d2 = jnp.full(jnp.shape(xb), jnp.inf, dtype=px.dtype)
         inside = jnp.zeros(jnp.shape(xb), dtype=bool)
         for e in range(a.shape[0]):
@@ -43,13 +70,112 @@ def obstacle_distances(x: State, scene: Scene):
             crosses = (ay > py) != (ay + ey > py)
             left = (apx * ey - apy * ex) * jnp.sign(ey) < 0           # x < x_intersection, no division
             inside = inside ^ (crosses & left)
-        pdx, pdy = xc - ox, yc - oy
         yield m, r, d2, inside, pdx * pdx + pdy * pdy
 
 
+def _edge_distances(px: jnp.ndarray, py: jnp.ndarray, a: jnp.ndarray, b: jnp.ndarray):
+    """The loop of :func:`obstacle_distances` over the outline's edges as array reductions: (least d² from
+    the point to an edge, whether the point lies inside), for points (..., 1) and edges a, b (E, 2)."""
+    ax, ay, ex, ey = a[:, 0], a[:, 1], b[:, 0] - a[:, 0], b[:, 1] - a[:, 1]
+    apx, apy = px - ax, py - ay
+    t = jnp.clip((apx * ex + apy * ey) / (ex * ex + ey * ey), 0.0, 1.0)
+    qx, qy = apx - t * ex, apy - t * ey
+    crosses = (ay > py) != (ay + ey > py)
+    left = (apx * ey - apy * ex) * jnp.sign(ey) < 0
+    inside = jnp.sum(crosses & left, -1) % 2 == 1
+    return jnp.min(qx * qx + qy * qy, -1), inside
+
+
+def polygon_gaps(x: State, scene: Scene):
+    """Per obstacle polygon, the separating-axis gaps (m) of the footprint and of the pusher (the module
+    docstring): (footprint gap, pusher gap), each (...,). Unrolled over polygons, pieces and corners
+    into elementwise code, as :func:`obstacle_distances`."""
+    if scene.pieces.shape[1] > UNROLL_CORNERS:
+        yield from _polygon_gaps_vectorised(x, scene)
+        return
+    xb, yb, th, xc, yc = components(x)
+    s, c = fastmath.sincos(th)
+    pieces, piece_planes = scene.pieces, scene.piece_planes
+    for p in range(scene.polygons.shape[0]):
+        corners, planes = scene.polygons[p], scene.polygon_planes[p]
+        k_count = corners.shape[0]
+        # the polygon's corners in {B}, and its normals turned into {B} with their offsets from the reference
+        wx = [c * (corners[k, 0] - xb) + s * (corners[k, 1] - yb) for k in range(k_count)]
+        wy = [-s * (corners[k, 0] - xb) + c * (corners[k, 1] - yb) for k in range(k_count)]
+        mx = [c * planes[k, 0] + s * planes[k, 1] for k in range(k_count)]
+        my = [-s * planes[k, 0] + c * planes[k, 1] for k in range(k_count)]
+        mo = [planes[k, 2] - planes[k, 0] * xb - planes[k, 1] * yb for k in range(k_count)]
+        body = None
+        for q in range(pieces.shape[0]):
+            v, h = pieces[q], piece_planes[q]
+            sep = None
+            for i in range(v.shape[0]):               # the piece's axes: its corners against the polygon's
+                near = functools.reduce(jnp.minimum, [h[i, 0] * wx[k] + h[i, 1] * wy[k] for k in range(k_count)])
+                sep = _max(sep, near - h[i, 2])
+            for k in range(k_count):                  # the polygon's axes
+                near = functools.reduce(jnp.minimum, [mx[k] * v[i, 0] + my[k] * v[i, 1] for i in range(v.shape[0])])
+                sep = jnp.maximum(sep, near - mo[k])
+            body = sep if body is None else jnp.minimum(body, sep)
+        pusher = functools.reduce(jnp.maximum, [planes[k, 0] * xc + planes[k, 1] * yc - planes[k, 2]
+                                                for k in range(k_count)])
+        yield body, pusher - scene.pusher_radius
+
+
+def _polygon_gaps_vectorised(x: State, scene: Scene):
+    """:func:`polygon_gaps` as array reductions over corners and pieces, for footprints whose pieces have
+    more than :data:`UNROLL_CORNERS` corners (the judge's ellipse), where unrolled code would take minutes
+    to compile."""
+    xb, yb, th, xc, yc = (v[..., None] for v in components(x))
+    s, c = fastmath.sincos(th)
+    v, h = scene.pieces, scene.piece_planes                                     # (Q, V, 2), (Q, V, 3)
+    for p in range(scene.polygons.shape[0]):
+        corners, planes = scene.polygons[p], scene.polygon_planes[p]            # (K, 2), (K, 3)
+        dx, dy = corners[:, 0] - xb, corners[:, 1] - yb                          # (..., K)
+        wx, wy = c * dx + s * dy, -s * dx + c * dy
+        mx, my = c * planes[:, 0] + s * planes[:, 1], -s * planes[:, 0] + c * planes[:, 1]
+        mo = planes[:, 2] - planes[:, 0] * xb - planes[:, 1] * yb
+        # the pieces' axes: (..., Q, V, K) projections of the polygon's corners, least over K, greatest over V
+        proj = h[..., 0, None] * wx[..., None, None, :] + h[..., 1, None] * wy[..., None, None, :]
+        own = jnp.max(jnp.min(proj, -1) - h[..., 2], -1)
+        # the polygon's axes: (..., K, Q, V) projections of the pieces' corners, least over V, greatest over K
+        proj = mx[..., :, None, None] * v[..., 0] + my[..., :, None, None] * v[..., 1]
+        other = jnp.max(jnp.min(proj, -1) - mo[..., :, None], -2)
+        body = jnp.min(jnp.maximum(own, other), -1)
+        pusher = jnp.max(planes[:, 0] * xc + planes[:, 1] * yc - planes[:, 2], -1)
+        yield body, pusher - scene.pusher_radius
+
+
+def _max(a: jnp.ndarray | None, b: jnp.ndarray) -> jnp.ndarray:
+    return b if a is None else jnp.maximum(a, b)
+
+
+def bound_gaps(x: State, scene: Scene):
+    """Per workspace half-plane n·p ≤ o, the gaps (m) of the footprint (the least o − n·v over its outline's
+    corners v) and of the pusher: (footprint gap, pusher gap), each (...,)."""
+    xb, yb, th, xc, yc = components(x)
+    s, c = fastmath.sincos(th)
+    a = scene.edge_a
+    for h in range(scene.bounds.shape[0]):
+        nx, ny, o = scene.bounds[h, 0], scene.bounds[h, 1], scene.bounds[h, 2]
+        mx, my = c * nx + s * ny, -s * nx + c * ny                    # the normal in {B}
+        if a.shape[0] > UNROLL_CORNERS:
+            reach = jnp.max(mx[..., None] * a[:, 0] + my[..., None] * a[:, 1], -1)
+        else:
+            reach = functools.reduce(jnp.maximum, [mx * a[e, 0] + my * a[e, 1] for e in range(a.shape[0])])
+        base = o - nx * xb - ny * yb
+        yield base - reach, o - nx * xc - ny * yc - scene.pusher_radius
+
+
+def region_gaps(x: State, scene: Scene):
+    """The gaps of :func:`polygon_gaps` and then of :func:`bound_gaps`: (footprint gap, pusher gap) per
+    polygon and per workspace half-plane."""
+    yield from polygon_gaps(x, scene)
+    yield from bound_gaps(x, scene)
+
+
 def collides(x: State, scene: Scene, margin: float = 0.0) -> jnp.ndarray:
-    """isCollision (9e): object footprint or pusher disc overlaps an obstacle disc grown by
-    ``margin`` (m); (...,) bool.
+    """isCollision (9e): object footprint or pusher disc overlaps an obstacle grown by ``margin`` (m),
+    or comes within ``margin`` of leaving the workspace; (...,) bool.
 
     It runs in every rollout step, so it avoids square roots and reductions: obstacles and
     edges are unrolled into elementwise code that XLA fuses (docs/performance.md).
@@ -57,6 +183,8 @@ def collides(x: State, scene: Scene, margin: float = 0.0) -> jnp.ndarray:
     hit = jnp.zeros(jnp.shape(components(x)[0]), dtype=bool)
     for _, r, d2, inside, pd2 in obstacle_distances(x, scene):
         hit = hit | overlaps(r + margin, d2, inside, pd2, scene.pusher_radius)
+    for body, pusher in region_gaps(x, scene):
+        hit = hit | (jnp.minimum(body, pusher) < margin)
     return hit
 
 
@@ -67,13 +195,15 @@ def overlaps(r: jnp.ndarray, d2: jnp.ndarray, inside: jnp.ndarray, pd2: jnp.ndar
 
 
 def clearance(x: State, scene: Scene) -> jnp.ndarray:
-    """The smallest gap (m) between any obstacle disc and the object's footprint or the pusher's disc;
-    (...,). Zero or less is a touch (a disc wholly inside the footprint counts as −radius); +inf
-    without obstacles."""
+    """The smallest gap (m) between any obstacle and the object's footprint or the pusher's disc, or
+    between either and the workspace's boundary; (...,). Zero or less is a touch (a disc wholly inside
+    the footprint counts as −radius); +inf without obstacles."""
     gap = jnp.full(jnp.shape(components(x)[0]), jnp.inf, dtype=jnp.result_type(components(x)[0], jnp.float32))
     for _, r, d2, inside, pd2 in obstacle_distances(x, scene):
         body = jnp.where(inside, -r, jnp.sqrt(d2) - r)
         gap = jnp.minimum(gap, jnp.minimum(body, jnp.sqrt(pd2) - r - scene.pusher_radius))
+    for body, pusher in region_gaps(x, scene):
+        gap = jnp.minimum(gap, jnp.minimum(body, pusher))
     return gap
 
 

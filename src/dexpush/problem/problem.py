@@ -11,6 +11,7 @@ below re-derives what it holds.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -21,7 +22,9 @@ from dexpush.common.checks import check_positive, checked_vector
 from dexpush.common.se2 import pose_error
 from dexpush.model.cgvmm import Contour
 from dexpush.model.shape import Shape
+from dexpush.problem.guidance import CostToGo, cost_to_go
 from dexpush.problem.obstacles import clearance_jit, collides_jit
+from dexpush.problem.regions import convex_polygon, workspace_halfplanes
 from dexpush.problem.scene import Scene, obstacle_array
 from dexpush.problem.weights import CostWeights
 
@@ -48,14 +51,19 @@ def is_success(object_pose: object, goal: object, xp: Any = np, position_m: floa
 @dataclass(frozen=True, eq=False)
 class Problem:
     """Push ``shape`` to the pose ``goal`` (x, y, θ in the world frame) without touching the disc
-    ``obstacles`` (c_x, c_y, radius), at the cost of eq. (9) with ``weights``; success is a
-    position error below ``tolerance_m`` and a heading error below ``tolerance_deg``.
+    ``obstacles`` (c_x, c_y, radius) or the convex ``polygons`` (boxes, walls: each a tuple of corners;
+    :mod:`dexpush.problem.regions`), and without leaving the convex ``workspace`` (its corners, or a
+    rectangle (x_lo, y_lo, x_hi, y_hi); None: unbounded), at the cost of eq. (9) with ``weights``;
+    success is a position error below ``tolerance_m`` and a heading error below ``tolerance_deg``.
+    The goal's footprint must fit: a ``ValueError`` says which obstacle it touches.
 
     Derived once, on construction: ``contour`` (the inflated contour's table), ``scene`` (the
     cost's view, world frame, with an outline of at most :data:`COST_OUTLINE_EDGES` edges),
     ``origin`` and ``local_scene`` (the same in the controller's frame, whose origin is the goal's
     position: float32 keeps its resolution wherever the world frame is), and ``judge_scene`` (the
-    footprint's own edges: what :meth:`collides` and :meth:`clearance` judge a trial by).
+    footprint's own edges: what :meth:`collides` and :meth:`clearance` judge a trial by), and
+    ``guide`` (the cost-to-go round the obstacles, :mod:`dexpush.problem.guidance`; None without
+    obstacles or with ``weights.guidance`` off).
     """
 
     shape: Shape
@@ -64,11 +72,17 @@ class Problem:
     weights: CostWeights = field(default_factory=CostWeights)
     tolerance_m: float = SUCCESS_POSITION_M
     tolerance_deg: float = SUCCESS_HEADING_DEG
+    polygons: tuple[tuple[tuple[float, float], ...], ...] = ()
+    workspace: tuple[tuple[float, float], ...] | None = None
+    #: (discs, polygons): the cost's scenes hold at least this many, inert ones added far away, so that
+    #: a family of problems (the clutter benchmark's seeds) shares compiled code (:meth:`Scene.make`)
+    pad_to: tuple[int, int] = (0, 0)
     contour: Contour = field(init=False, repr=False)
     scene: Scene = field(init=False, repr=False)
     origin: np.ndarray = field(init=False, repr=False)
     local_scene: Scene = field(init=False, repr=False)
     judge_scene: Scene = field(init=False, repr=False)
+    guide: CostToGo | None = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.shape, Shape):
@@ -79,20 +93,58 @@ class Problem:
         discs = obstacle_array(self.obstacles)
         check_positive("tolerance_m", self.tolerance_m, "m")
         check_positive("tolerance_deg", self.tolerance_deg, "degrees")
+        polys = tuple(convex_polygon(p, f"obstacle polygon {i}") for i, p in enumerate(self.polygons))
+        bounds, corners = None, None
+        if self.workspace is not None:
+            bounds = workspace_halfplanes(self.workspace)
+            corners = _corners(bounds)
         origin = np.array([goal[0], goal[1], 0.0])
         put = object.__setattr__
         put(self, "goal", tuple(float(v) for v in goal))
         put(self, "obstacles", tuple(tuple(float(v) for v in d) for d in discs))
+        put(self, "polygons", tuple(tuple((float(x), float(y)) for x, y in p) for p in polys))
+        put(self, "workspace", None if corners is None else tuple((float(x), float(y)) for x, y in corners))
+        guide = None
+        if self.weights.guidance and (len(discs) or polys or bounds is not None):
+            guide = cost_to_go(self.shape.polygons, self.shape.bounding_radius, goal, discs, polys, corners,
+                               self.weights.obstacle_margin_m, self.weights.guidance_cell_m)
+        put(self, "guide", guide)
         put(self, "contour", Contour.of(self.shape))
-        put(self, "scene", Scene.make(self.shape, goal, discs, self.weights, COST_OUTLINE_EDGES))
+        put(self, "scene", Scene.make(self.shape, goal, discs, self.weights, COST_OUTLINE_EDGES, polys, bounds,
+                                      guide, self.pad_to))
         put(self, "origin", origin)
-        put(self, "local_scene", Scene.make(self.shape, goal - origin, discs - origin * [1.0, 1.0, 0.0],
-                                            self.weights, COST_OUTLINE_EDGES))
-        put(self, "judge_scene", Scene.make(self.shape, goal, discs, self.weights))
+        shift = origin * [1.0, 1.0, 0.0]
+        # a half-plane n·p ≤ o seen from the origin: n·(p − origin) ≤ o − n·origin
+        local_bounds = None if bounds is None else np.c_[bounds[:, :2], bounds[:, 2] - bounds[:, :2] @ origin[:2]]
+        put(self, "local_scene", Scene.make(self.shape, goal - origin, discs - shift, self.weights, COST_OUTLINE_EDGES,
+                                            tuple(p - origin[:2] for p in polys), local_bounds,
+                                            None if guide is None else guide.shifted(origin), self.pad_to))
+        put(self, "judge_scene", Scene.make(self.shape, goal, discs, self.weights, None, polys, bounds,
+                                            pad_to=self.pad_to))
+        self._check_goal_fits()
+
+    def _check_goal_fits(self) -> None:
+        """A ``ValueError`` when the goal's footprint touches an obstacle or leaves the workspace."""
+        if self.obstacles or self.polygons:
+            # the pusher far away (and the workspace, which would see it outside, left out): the footprint alone
+            at_goal = jnp.asarray([[*self.goal, self.goal[0] + 1e3, self.goal[1] + 1e3]], jnp.float32)
+            scene = dataclasses.replace(self.judge_scene, bounds=self.judge_scene.bounds[:0])
+            gap = float(np.asarray(clearance_jit(at_goal, scene))[0])
+            if gap <= 0:
+                raise ValueError(f"the goal pose {self.goal} puts the object's footprint on an obstacle "
+                                 f"(overlap {-gap * 1e3:.1f} mm): move the goal or the obstacles")
+        if self.workspace is not None:
+            bounds = workspace_halfplanes(self.workspace)
+            corners = np.concatenate(self.shape.footprint_world(self.goal))
+            out = float(np.max(corners @ bounds[:, :2].T - bounds[:, 2]))
+            if out >= 0:
+                raise ValueError(f"the goal pose {self.goal} puts the object's footprint outside the workspace "
+                                 f"(by {out * 1e3:.1f} mm): move the goal or widen the workspace")
 
     @property
     def has_obstacles(self) -> bool:
-        return bool(self.obstacles)
+        """Whether anything can be touched: a disc, a polygon or the workspace's boundary."""
+        return bool(self.obstacles or self.polygons or self.workspace is not None)
 
     def success(self, object_pose: object, xp: Any = np) -> Any:
         """Whether ``object_pose`` (..., 3) is within the tolerances of the goal."""
@@ -102,17 +154,28 @@ class Problem:
     def collides(self, states: object) -> np.ndarray:
         """(...,) bool: the object's footprint or the pusher touches an obstacle in states (..., 5)."""
         x = jnp.asarray(states, jnp.float32)
-        if not self.obstacles:
+        if not self.has_obstacles:
             return np.zeros(x.shape[:-1], bool)
         return np.asarray(collides_jit(x, self.judge_scene))
 
     def clearance(self, states: object) -> np.ndarray:
         """(...,) the smallest gap (m) between an obstacle and the object or the pusher; +inf without obstacles."""
         x = jnp.asarray(states, jnp.float32)
-        if not self.obstacles:
+        if not self.has_obstacles:
             return np.full(x.shape[:-1], np.inf)
         return np.asarray(clearance_jit(x, self.judge_scene))
 
     def with_weights(self, weights: CostWeights) -> Problem:
         """The same problem at the cost ``weights``."""
-        return Problem(self.shape, self.goal, self.obstacles, weights, self.tolerance_m, self.tolerance_deg)
+        return Problem(self.shape, self.goal, self.obstacles, weights, self.tolerance_m, self.tolerance_deg,
+                       self.polygons, self.workspace, self.pad_to)
+
+
+def _corners(bounds: np.ndarray) -> np.ndarray:
+    """The corners of a convex polygon from its :func:`dexpush.problem.regions.halfplanes` rows (each corner
+    where a row's line meets the next's)."""
+    n, o = bounds[:, :2], bounds[:, 2]
+    n1, o1 = np.roll(n, -1, axis=0), np.roll(o, -1)
+    det = n[:, 0] * n1[:, 1] - n[:, 1] * n1[:, 0]
+    return np.stack([(o * n1[:, 1] - o1 * n[:, 1]) / det, (n[:, 0] * o1 - n1[:, 0] * o) / det], -1)
+

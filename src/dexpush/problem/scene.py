@@ -1,18 +1,31 @@
-"""What the cost of eq. (9) knows about the world: the goal, the disc obstacles and the object's
-footprint, as arrays that can be passed into jit (:class:`Scene`)."""
+"""What the cost of eq. (9) knows about the world: the goal, the obstacles (discs and convex polygons),
+the workspace, the object's footprint and the cost-to-go that guides it round them, as arrays that can
+be passed into jit (:class:`Scene`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from dexpush.model.convex_pieces import convex_pieces
+from dexpush.model.polygons import circumscribed, is_convex
 from dexpush.model.shape import Shape
+from dexpush.problem.guidance import CostToGo
+from dexpush.problem.regions import halfplanes
 from dexpush.problem.weights import CostWeights
 
-__all__ = ["Scene", "obstacle_array"]
+__all__ = ["INERT_M", "JUDGE_PIECE_CORNERS", "Scene", "footprint_pieces", "obstacle_array", "padded_polygons"]
+
+#: the most corners of a footprint piece the polygon and workspace gaps see without ``max_edges`` (the
+#: judge's scene): a circumscribed 64-gon lies within 0.13 mm of the ellipse's 256-gon
+JUDGE_PIECE_CORNERS = 64
+
+#: where the inert obstacles of a padded scene lie (m along x and y): far beyond any margin
+INERT_M = 1000.0
 
 
 @dataclass(frozen=True)
@@ -34,12 +47,39 @@ class Scene:
     #: the margin (m) this plan keeps from the obstacles: ``CostWeights.obstacle_margin_m``, or less
     #: where the object or the pusher is already nearer (:func:`plan_margin`)
     margin: jnp.ndarray = None  # type: ignore[assignment]
+    #: (P, K, 2) convex obstacle polygons' corners, counter-clockwise, padded by repeating the last corner
+    polygons: jnp.ndarray = None  # type: ignore[assignment]
+    #: (P, K, 3) their edges as half-planes [n_x, n_y, o] (n·p ≤ o inside), padded by repeating a row
+    polygon_planes: jnp.ndarray = None  # type: ignore[assignment]
+    #: (H, 3) the workspace as half-planes [n_x, n_y, o]: footprint and pusher stay where n·p ≤ o; H may be 0
+    bounds: jnp.ndarray = None  # type: ignore[assignment]
+    #: (Q, V, 2) the footprint's convex pieces in {B} (at most ``max_edges`` corners each), padded like
+    #: ``polygons``; and (Q, V, 3) their half-planes (:func:`footprint_pieces`)
+    pieces: jnp.ndarray = None  # type: ignore[assignment]
+    piece_planes: jnp.ndarray = None  # type: ignore[assignment]
+    #: (N_x, N_y) the cost-to-go V on its grid (:class:`dexpush.problem.guidance.CostToGo`); (0, 0)
+    #: without one. ``guide_lo`` (2,) is the grid's first node, ``guide_cell`` its spacing (m).
+    guide: jnp.ndarray = None  # type: ignore[assignment]
+    guide_lo: jnp.ndarray = None  # type: ignore[assignment]
+    guide_cell: jnp.ndarray = None  # type: ignore[assignment]
+
+    @property
+    def has_obstacles(self) -> bool:
+        """Whether there is anything to keep clear of: a disc, a polygon or a workspace boundary."""
+        return bool(self.obstacles.shape[0] or self.polygons.shape[0] or self.bounds.shape[0])
 
     @staticmethod
     def make(shape: Shape, goal: object, obstacles: object = (), weights: CostWeights | None = None,
-             max_edges: int | None = None) -> Scene:
+             max_edges: int | None = None, polygons: tuple[np.ndarray, ...] = (),
+             bounds: np.ndarray | None = None, guide: CostToGo | None = None,
+             pad_to: tuple[int, int] = (0, 0)) -> Scene:
         """The cost's view of a task; with ``max_edges``, the footprint's outline has at most that many
         edges where the footprint is convex (:meth:`dexpush.model.shape.Shape.outline_edges`).
+        ``polygons`` are convex obstacle polygons (checked by
+        :func:`dexpush.problem.regions.convex_polygon`), ``bounds`` the workspace's half-planes
+        (:func:`dexpush.problem.regions.workspace_halfplanes`), ``guide`` the cost-to-go, all in the
+        frame of ``goal``. ``pad_to`` (discs, polygons): add inert ones 1 km away up to these counts, so that
+        the problems of one family (a clutter benchmark's seeds) have arrays of one shape and share compiled code.
 
         The effective r_s is max(r_s, R_max + r_s_clearance), R_max the largest radius of
         the inflated contour. Table II's r_s = 0.2 m suits the paper's objects, but the
@@ -52,6 +92,12 @@ class Scene:
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ValueError(f"goal must be a finite pose (x, y, θ), got {goal!r}")
         obs = obstacle_array(obstacles)
+        n_discs, n_polys = pad_to
+        if len(obs) < n_discs:
+            obs = np.concatenate([obs, [[INERT_M + i, INERT_M, 1e-3] for i in range(n_discs - len(obs))]])
+        if len(polygons) < n_polys:
+            sliver = np.array([[0.0, 0.0], [1e-3, 0.0], [0.0, 1e-3]])
+            polygons = (*polygons, *(sliver + np.array([INERT_M, INERT_M + i]) for i in range(n_polys - len(polygons))))
         a, b = shape.edges if max_edges is None else shape.outline_edges(max_edges)
         r_s = w.r_s if w.r_s_clearance is None else max(w.r_s, shape.bounding_radius + w.r_s_clearance)
         rho = np.zeros(0)
@@ -60,13 +106,45 @@ class Scene:
             # from it; capped at the goal's distance, so that the goal itself is never inside a detour disc
             reach = float(np.max(np.hypot(a[:, 0], a[:, 1])))
             rho = np.minimum(obs[:, 2] + w.obstacle_margin_m + reach, np.hypot(*(g[None, :2] - obs[:, :2]).T))
+        poly, planes = padded_polygons(polygons)
+        pieces, piece_planes = padded_polygons(footprint_pieces(shape, max_edges or JUDGE_PIECE_CORNERS))
+        bounds = np.zeros((0, 3)) if bounds is None else np.asarray(bounds, np.float64).reshape(-1, 3)
+        values, lo, cell = (np.zeros((0, 0)), np.zeros(2), 1.0) if guide is None else (guide.values, guide.lo,
+                                                                                           guide.cell)
+        f32 = partial(jnp.asarray, dtype=jnp.float32)
         return Scene(jnp.asarray(g), jnp.asarray(obs), jnp.asarray(a), jnp.asarray(b), jnp.asarray(r_s),
-                     shape.pusher_radius, jnp.asarray(rho), jnp.asarray(w.obstacle_margin_m))
+                     shape.pusher_radius, jnp.asarray(rho), jnp.asarray(w.obstacle_margin_m),
+                     jnp.asarray(poly), jnp.asarray(planes), jnp.asarray(bounds), jnp.asarray(pieces),
+                     jnp.asarray(piece_planes), f32(values), f32(lo), f32(cell))
 
 
 jax.tree_util.register_dataclass(
-    Scene, data_fields=["goal", "obstacles", "edge_a", "edge_b", "r_s", "detour_radius", "margin"],
+    Scene, data_fields=["goal", "obstacles", "edge_a", "edge_b", "r_s", "detour_radius", "margin", "polygons",
+                        "polygon_planes", "bounds", "pieces", "piece_planes", "guide", "guide_lo", "guide_cell"],
     meta_fields=["pusher_radius"])
+
+
+def padded_polygons(polygons: tuple[np.ndarray, ...] | list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Convex counter-clockwise polygons as one (P, K, 2) corner array and one (P, K, 3) half-plane array
+    (:func:`dexpush.problem.regions.halfplanes`), K the most corners of any: a shorter polygon repeats its
+    last corner and its last half-plane, which changes no separation (a minimum over corners, a maximum
+    over planes)."""
+    if not len(polygons):
+        return np.zeros((0, 3, 2)), np.zeros((0, 3, 3))
+    k = max(len(p) for p in polygons)
+    corners = np.stack([np.concatenate([p, np.repeat(p[-1:], k - len(p), 0)]) for p in polygons])
+    planes = [halfplanes(p) for p in polygons]
+    return corners, np.stack([np.concatenate([h, np.repeat(h[-1:], k - len(h), 0)]) for h in planes])
+
+
+def footprint_pieces(shape: Shape, max_edges: int | None = None) -> list[np.ndarray]:
+    """The footprint as convex pieces in {B} (:func:`dexpush.model.convex_pieces.convex_pieces` of each
+    polygon); with ``max_edges``, a piece with more corners is replaced by its circumscribed polygon of
+    that many (the ellipse's 256-gon), which only ever keeps the object farther from an obstacle."""
+    pieces = [q for p in shape.polygons for q in ([p] if is_convex(p) else convex_pieces(p))]
+    if max_edges is not None:
+        pieces = [circumscribed(q, max_edges) if len(q) > max_edges else q for q in pieces]
+    return pieces
 
 
 def obstacle_array(obstacles: object) -> np.ndarray:

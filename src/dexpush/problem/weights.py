@@ -35,6 +35,12 @@ class CostWeights:
     #: margin as a fraction of it (:func:`obstacle_cost`); None charges C_pen there, as the discs grown by
     #: the margin in (9e) would. See docs/controller.md#the-margin.
     C_margin: float | None = 1e9
+    #: measure the goal distance of d² along the cost-to-go round every obstacle and inside the workspace
+    #: (:mod:`dexpush.problem.guidance`; it supersedes ``detour``) when the problem has any; False keeps
+    #: the detour round discs. See docs/workspaces.md.
+    guidance: bool = True
+    #: the cost-to-go's grid spacing (m)
+    guidance_cell_m: float = 0.02
 
     def __post_init__(self) -> None:
         for name in ("q_f", "q_r1", "q_r2", "c"):
@@ -47,6 +53,9 @@ class CostWeights:
         for name in ("r_s", "C_pen"):
             check_positive(name, getattr(self, name))
         check_nonnegative("obstacle_margin_m", self.obstacle_margin_m, "m")
+        check_positive("guidance_cell_m", self.guidance_cell_m, "m")
+        if not 0.005 <= self.guidance_cell_m <= 0.1:
+            raise ValueError(f"guidance_cell_m must be between 0.005 and 0.1 m, got {self.guidance_cell_m!r}")
         if self.r_s_clearance is not None:
             check_nonnegative("r_s_clearance", self.r_s_clearance, "m, or None")
 
