@@ -20,8 +20,9 @@ def test_tasks_match_the_spec() -> None:
     assert get_task("I").goal == (0.60, 0.30, 0.0)
     assert get_task("2").goal == pytest.approx((0.0, 0.0, np.pi / 2))
     assert get_task("obstacle").obstacles == ((0.30, 0.0, 0.05),)
-    with pytest.raises(ValueError, match="unknown task 'IV'"):
-        get_task("IV")
+    assert len(get_task("iv").polygons) == 4 and len(get_task("confined").obstacles) == 3
+    with pytest.raises(ValueError, match="unknown task 'V'"):
+        get_task("V")
 
 
 @pytest.mark.parametrize("name", ["rect", "tee"])
