@@ -54,7 +54,7 @@ def test_physics_plant_with_a_realistic_camera_end_to_end(tmp_path: Path) -> Non
 
 
 @pytest.mark.parametrize("args, message", [
-    (["run", "--task", "IV"], "unknown task 'IV'"),
+    (["run", "--task", "V"], "unknown task 'V'"),
     (["run", "--shape", "star"], "shape must be one of rect, tee, ellipse or a .toml shape file"),
     (["run", "--shape", "missing.toml"], "shape file 'missing.toml' does not exist"),
     (["run", "--goal", "0.1,0.2"], "--goal: expected 3 comma-separated numbers"),

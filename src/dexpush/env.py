@@ -149,7 +149,13 @@ class PushEnv(gym.Env):
         if int(max_steps) < 1:
             raise ValueError(f"max_steps must be >= 1, got {max_steps}")
         self.task = get_task(task)
+        if problem is None and self.task.varies_by_seed:
+            raise ValueError(f"task {self.task.key} has one layout per seed: "
+                             "pass problem=task.problem(shape, seed=...)")
         self.obstacles = problem.obstacles if problem is not None else self.task.obstacles
+        #: the boxes, walls and workspace bound every episode's problem keeps
+        self._regions = ({"polygons": problem.polygons, "workspace": problem.workspace} if problem is not None
+                         else {"polygons": self.task.polygons, "workspace": self.task.workspace})
         self.shape = make_shape(shape) if isinstance(shape, str) else shape
         if not isinstance(self.shape, Shape):
             raise ValueError(f"shape must be a name or a dexpush.Shape, got {shape!r}")
@@ -178,7 +184,8 @@ class PushEnv(gym.Env):
         if self._problem is None or self._problem.goal != tuple(self._goal):
             weights = self._problem.weights if self._problem is not None else CostWeights()
             self._problem = Problem(self.shape, tuple(self._goal), self.obstacles, weights,
-                                    tolerance_m=self.goals.position_m, tolerance_deg=self.goals.heading_deg)
+                                    tolerance_m=self.goals.position_m, tolerance_deg=self.goals.heading_deg,
+                                    **self._regions)
         return self._problem
 
     def _observation(self, frame: Any) -> np.ndarray:
@@ -224,14 +231,15 @@ class PushEnv(gym.Env):
         import matplotlib.pyplot as plt
         from matplotlib.patches import Circle, Polygon
 
+        from dexpush.viz import draw_obstacles
+
         x = self.camera.state
         fig, ax = plt.subplots(figsize=(4, 3), dpi=80)
         for poly in self.shape.footprint_world(self._goal):
             ax.add_patch(Polygon(poly, closed=True, fill=False, ec="#d62728", ls="--"))
         for poly in self.shape.footprint_world(x[:3]):
             ax.add_patch(Polygon(poly, closed=True, fc="0.6", ec="k"))
-        for cx, cy, r in self.obstacles:
-            ax.add_patch(Circle((cx, cy), r, color="#d62728", alpha=0.5))
+        draw_obstacles(ax, self.obstacles, self.problem.polygons, self.problem.workspace)
         ax.add_patch(Circle(tuple(x[3:]), self.shape.pusher_radius, color="c", ec="k"))
         pts = np.array([x[:2], x[3:], self._goal[:2]])
         pad = self.shape.bounding_radius + 0.05

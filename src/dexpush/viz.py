@@ -20,8 +20,9 @@ from dexpush.common.interfaces import CONTROL_PERIOD_S
 from dexpush.model.cgvmm import MODE_NAMES
 from dexpush.model.shape import Shape
 
-__all__ = ["animate_episode", "plot_condition", "plot_confusion", "plot_episode", "plot_fit", "plot_mode_decisions",
-           "plot_online_lambda", "plot_params", "plot_shapes", "save_figure_atomic"]
+__all__ = ["animate_episode", "draw_obstacles", "plot_condition", "plot_confusion", "plot_episode", "plot_fit",
+           "plot_guidance", "plot_layouts", "plot_mode_decisions", "plot_online_lambda", "plot_params",
+           "plot_shapes", "save_figure_atomic"]
 
 MODE_COLORS = {"stick": "#e6a800", "slide_ccw": "#2ca02c", "slide_cw": "#1f77b4", "free": "#d62728",
                "corner": "#9467bd"}
@@ -42,8 +43,10 @@ def _draw_pose(ax: plt.Axes, shape: Shape, pose: np.ndarray, **kw: object) -> No
 
 
 def _setup_axes(ax: plt.Axes, shape: Shape, states: np.ndarray, goal: np.ndarray,
-                obstacles: np.ndarray, goal_label: str = "goal") -> None:
-    pts = np.concatenate([states[:, :2], states[:, 3:], goal[None, :2]])
+                obstacles: np.ndarray, goal_label: str = "goal", polygons: tuple = (),
+                workspace: np.ndarray | None = None) -> None:
+    pts = np.concatenate([states[:, :2], states[:, 3:], goal[None, :2]]
+                         + ([] if workspace is None else [np.asarray(workspace)]))
     pad = shape.bounding_radius + 0.03
     ax.set_xlim(pts[:, 0].min() - pad, pts[:, 0].max() + pad)
     ax.set_ylim(pts[:, 1].min() - pad, pts[:, 1].max() + pad)
@@ -51,9 +54,22 @@ def _setup_axes(ax: plt.Axes, shape: Shape, states: np.ndarray, goal: np.ndarray
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.grid(alpha=0.3)
-    for cx, cy, r in obstacles:
-        ax.add_patch(Circle((cx, cy), r, color="#d62728", alpha=0.5, label="obstacle"))
+    draw_obstacles(ax, obstacles, polygons, workspace)
     _draw_pose(ax, shape, goal, fill=False, ec="#d62728", lw=1.5, ls="--", label=goal_label)
+
+
+def draw_obstacles(ax: plt.Axes, obstacles: np.ndarray, polygons: tuple = (),
+                   workspace: np.ndarray | None = None) -> None:
+    """Disc obstacles (c_x, c_y, r), convex polygons (boxes, walls: corner arrays) and the workspace's
+    boundary on ``ax``, one legend entry each."""
+    for i, (cx, cy, r) in enumerate(np.asarray(obstacles).reshape(-1, 3)):
+        ax.add_patch(Circle((cx, cy), r, color="#d62728", alpha=0.5, label="obstacle" if i == 0 else None))
+    for i, corners in enumerate(polygons):
+        ax.add_patch(Polygon(np.asarray(corners), closed=True, color="#8c564b", alpha=0.55,
+                             label="box / wall" if i == 0 else None))
+    if workspace is not None:
+        ax.add_patch(Polygon(np.asarray(workspace), closed=True, fill=False, ec="k", lw=1.5, ls="-",
+                             label="workspace"))
 
 
 def _finish(fig: plt.Figure, ax: plt.Axes, title: str, path: str | os.PathLike | None, dpi: int) -> plt.Figure:
@@ -68,12 +84,14 @@ def _finish(fig: plt.Figure, ax: plt.Axes, title: str, path: str | os.PathLike |
 
 def plot_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.ndarray,
                  obstacles: np.ndarray | None = None, title: str = "", outlines: int = 12,
-                 path: str | os.PathLike | None = None) -> plt.Figure:
-    """Object outlines along the path, its reference path, the pusher path coloured by mode."""
+                 path: str | os.PathLike | None = None, polygons: tuple = (),
+                 workspace: np.ndarray | None = None) -> plt.Figure:
+    """Object outlines along the path, its reference path, the pusher path coloured by mode; the
+    obstacles (discs, ``polygons``) and the ``workspace`` boundary."""
     states = np.asarray(states)
     obstacles = np.zeros((0, 3)) if obstacles is None else np.asarray(obstacles).reshape(-1, 3)
     fig, ax = plt.subplots(figsize=(7, 5.5))
-    _setup_axes(ax, shape, states, np.asarray(goal), obstacles)
+    _setup_axes(ax, shape, states, np.asarray(goal), obstacles, polygons=polygons, workspace=workspace)
     idx = np.unique(np.linspace(0, len(states) - 1, outlines).astype(int))
     for j, i in enumerate(idx):
         _draw_pose(ax, shape, states[i], fill=True, fc="0.6", ec="0.2", alpha=0.12 + 0.25 * j / len(idx), lw=0.8)
@@ -92,12 +110,14 @@ def plot_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.n
 
 def plot_condition(shape: Shape, trajectories: list[np.ndarray], successes: list[bool], goal: np.ndarray,
                    obstacles: np.ndarray | None = None, title: str = "",
-                   path: str | os.PathLike | None = None) -> plt.Figure:
+                   path: str | os.PathLike | None = None, polygons: tuple = (),
+                   workspace: np.ndarray | None = None) -> plt.Figure:
     """All trials of one benchmark condition: object reference paths (green: success, red:
     failure), start and final footprints, pusher paths faint, goal and obstacles."""
     obstacles = np.zeros((0, 3)) if obstacles is None else np.asarray(obstacles).reshape(-1, 3)
     fig, ax = plt.subplots(figsize=(7, 5.5))
-    _setup_axes(ax, shape, np.concatenate(trajectories), np.asarray(goal), obstacles)
+    _setup_axes(ax, shape, np.concatenate(trajectories), np.asarray(goal), obstacles, polygons=polygons,
+                workspace=workspace)
     for k, (X, ok) in enumerate(zip(trajectories, successes)):
         color = "#2ca02c" if ok else "#d62728"
         ax.plot(X[:, 3], X[:, 4], "-", color="0.5", lw=0.4, alpha=0.35, label="pusher paths" if k == 0 else None)
@@ -110,9 +130,71 @@ def plot_condition(shape: Shape, trajectories: list[np.ndarray], successes: list
     return _finish(fig, ax, title, path, dpi=110)
 
 
+def plot_layouts(shape: Shape, trials: list[tuple[object, np.ndarray, bool]], title: str = "",
+                 path: str | os.PathLike | None = None, columns: int = 6) -> plt.Figure:
+    """Small multiples for a family whose layout changes with the seed (the clutter benchmark): one panel
+    per trial ``(problem, states, success)`` with its obstacles, workspace, goal, start and object path
+    (green: success, red: failure) and the pusher path faint."""
+    rows = max(1, -(-len(trials) // columns))
+    fig, axes = plt.subplots(rows, columns, figsize=(2.2 * columns, 2.2 * rows), squeeze=False)
+    for ax in axes.flat[len(trials):]:
+        ax.set_axis_off()
+    for ax, (problem, X, ok) in zip(axes.flat, trials):
+        X = np.asarray(X)
+        color = "#2ca02c" if ok else "#d62728"
+        ax.set_aspect("equal")
+        ax.set_xticks([])
+        ax.set_yticks([])
+        draw_obstacles(ax, problem.obstacles, problem.polygons, problem.workspace)
+        if problem.workspace is not None:
+            w = np.asarray(problem.workspace)
+            ax.set_xlim(w[:, 0].min() - 0.02, w[:, 0].max() + 0.02)
+            ax.set_ylim(w[:, 1].min() - 0.02, w[:, 1].max() + 0.02)
+        ax.plot(X[:, 3], X[:, 4], "-", color="0.5", lw=0.4, alpha=0.5)
+        ax.plot(X[:, 0], X[:, 1], "-", color=color, lw=1.0)
+        _draw_pose(ax, shape, X[0], fill=False, ec="#1f77b4", lw=0.8)
+        _draw_pose(ax, shape, np.asarray(problem.goal), fill=False, ec="#d62728", lw=0.8, ls="--")
+        _draw_pose(ax, shape, X[-1], fill=True, fc=color, ec="0.2", lw=0.4, alpha=0.25)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    if path is not None:
+        save_figure_atomic(fig, path, dpi=100)
+    return fig
+
+
+def plot_guidance(shape: Shape, problem: object, states: np.ndarray | None = None, title: str = "",
+                  path: str | os.PathLike | None = None) -> plt.Figure:
+    """The cost-to-go V of ``problem.guide`` as a filled contour (positions where the footprint fits in no
+    heading hatched out), the obstacles, the goal and, given ``states``, the object's and the pusher's
+    paths."""
+    guide = problem.guide
+    fig, ax = plt.subplots(figsize=(7, 5.5))
+    if guide is not None:
+        nx, ny = guide.values.shape
+        xs = guide.lo[0] + guide.cell * np.arange(nx)
+        ys = guide.lo[1] + guide.cell * np.arange(ny)
+        v = np.where(guide.reached, guide.values, np.nan)
+        field = ax.contourf(xs, ys, v.T, levels=24, cmap="viridis", alpha=0.85)
+        fig.colorbar(field, ax=ax, label="cost-to-go V (m)")
+        ax.contourf(xs, ys, (~guide.free).T.astype(float), levels=[0.5, 1.5], colors="none", hatches=["///"])
+    draw_obstacles(ax, problem.obstacles, problem.polygons, problem.workspace)
+    _draw_pose(ax, shape, np.asarray(problem.goal), fill=False, ec="#d62728", lw=1.5, ls="--", label="goal")
+    if states is not None:
+        X = np.asarray(states)
+        ax.plot(X[:, 3], X[:, 4], "-", color="w", lw=0.8, alpha=0.9, label="pusher path")
+        ax.plot(X[:, 0], X[:, 1], "-", color="k", lw=1.6, label="object path")
+        _draw_pose(ax, shape, X[0], fill=False, ec="#1f77b4", lw=1.5, label="start")
+        _draw_pose(ax, shape, X[-1], fill=True, fc="0.6", ec="k", lw=0.8, alpha=0.6, label="end")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    return _finish(fig, ax, title, path, dpi=120)
+
+
 def animate_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.ndarray,
                     obstacles: np.ndarray | None, path: str | os.PathLike, fps: float = 12.5,
-                    control_period: float = CONTROL_PERIOD_S, speedup: float = 1.0, title: str = "") -> str:
+                    control_period: float = CONTROL_PERIOD_S, speedup: float = 1.0, title: str = "",
+                    polygons: tuple = (), workspace: np.ndarray | None = None) -> str:
     """An animation of the episode playing at ``speedup`` × real time; returns the path written.
 
     One frame every k = round(speedup / (fps·T)) control steps (T = ``control_period``),
@@ -129,7 +211,7 @@ def animate_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: n
     if frames[-1] != len(states) - 1:
         frames = np.append(frames, len(states) - 1)
     fig, ax = plt.subplots(figsize=(5, 4), dpi=80)
-    _setup_axes(ax, shape, states, np.asarray(goal), obstacles)
+    _setup_axes(ax, shape, states, np.asarray(goal), obstacles, polygons=polygons, workspace=workspace)
     ax.set_title(title, fontsize=8)
     patches = [Polygon(np.zeros((3, 2)), closed=True, fc="0.6", ec="k", animated=True) for _ in shape.polygons]
     for p in patches:

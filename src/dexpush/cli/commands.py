@@ -34,8 +34,9 @@ def _episode_files(episode, shape, out: Path, animation: bool, control_period: f
     title = (f"{task} · {rec.shape} · {rec.method} ({rec.params} λ) · {rec.plant} plant · camera: {rec.sensor} · "
              f"seed {rec.seed}\n{'success' if rec.success else 'failure'} in {rec.steps} steps ({rec.time_s:g} s)")
     files = {"trajectory": str(out / "trajectory.png"), "summary": str(out / "summary.json")}
+    regions = {"polygons": episode.polygons, "workspace": episode.workspace}
     fig = plot_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles, title=title,
-                       path=files["trajectory"])
+                       path=files["trajectory"], **regions)
     plt.close(fig)
     if get_method(rec.method).estimates:
         files["params"] = str(out / "params.png")
@@ -45,7 +46,7 @@ def _episode_files(episode, shape, out: Path, animation: bool, control_period: f
         speedup = max(1, math.ceil(duration / 30.0))      # long episodes play faster (the caption says so)
         files["animation"] = animate_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles,
                                              out / "animation.mp4", control_period=control_period,
-                                             speedup=speedup, title=title)
+                                             speedup=speedup, title=title, **regions)
     files["trajectory_data"] = str(out / "trajectory.npz")
     with atomic_path(files["trajectory_data"]) as tmp, open(tmp, "wb") as fh:
         np.savez_compressed(fh, states=episode.states, modes=episode.modes, commands=episode.commands,
@@ -55,7 +56,6 @@ def _episode_files(episode, shape, out: Path, animation: bool, control_period: f
     return files
 
 
-#: ``dexpush run`` flags that override the config's [run] table (None: not given)
 #: ``dexpush run`` flags that override the config's [run] table (None: not given)
 _RUN_KEYS = ("task", "shape", "goal", "params", "lambda_pred", "method", "seed", "plant", "true_params", "mu",
              "max_steps")

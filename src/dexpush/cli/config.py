@@ -5,7 +5,7 @@ documented default when absent. ``dexpush run --print-config`` prints the full e
 file, defaults included, so the easiest start is to save that and edit it::
 
     [run]                       # what to push where (RunSettings)
-    task = "I"                  # I, II, III: the start distribution, and goal/obstacles unless given
+    task = "I"                  # I, II, III, IV, C: the start distribution, and goal/obstacles unless given
     shape = "examples/shapes/l_block.toml"   # rect, tee, ellipse, or a shape file (Shape.from_file)
     goal = [0.4, 0.2, 0.5]      # x (m), y (m), θ (rad) of the shape's reference point
     obstacles = [[0.2, 0.1, 0.03]]            # discs c_x, c_y, r (m)

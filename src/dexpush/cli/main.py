@@ -135,7 +135,8 @@ def build_parser() -> argparse.ArgumentParser:
     rob.set_defaults(func=cmd_robot, plant=None, lanes=1, true_params=None, mu=None)
 
     bench = sub.add_parser("bench", help="the paper's Sec. IV-B table (batched, resumable)")
-    bench.add_argument("--tasks", default="I,II,III", help="comma-separated tasks from I, II, III (default I,II,III)")
+    bench.add_argument("--tasks", default="I,II,III",
+                       help="comma-separated tasks from I, II, III, IV (confined), C (random clutter) (default I,II,III)")
     bench.add_argument("--shapes", default="rect,tee",
                        help=f"comma-separated shapes from {', '.join(SHAPES)} (default rect,tee)")
     bench.add_argument("--params", default="known,unknown",

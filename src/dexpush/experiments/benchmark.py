@@ -45,6 +45,7 @@ from dexpush.experiments.results_folder import (
 from dexpush.experiments.runner import batched, run_trial, trial_spec
 from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task
 from dexpush.experiments.simulate import TrialResult, TrialSpec, simulate
+from dexpush.problem.problem import Problem
 
 __all__ = ["BENCH_LANES", "exit_with_parent", "run_benchmark"]
 
@@ -86,7 +87,7 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
     exact = sensor is None or sensor.perfect
     for m in map(get_method, methods):
         m.check_sensing(exact)
-        skipped = [t for t in task_keys if get_task(t).obstacles] if not m.obstacles else []
+        skipped = [t for t in task_keys if get_task(t).has_obstacles] if not m.obstacles else []
         if skipped and progress:
             print(f"{m.name}: no obstacle support, skipping task {', '.join(skipped)}", file=sys.stderr, flush=True)
     seeds = sorted({int(s) for s in seeds})
@@ -143,7 +144,8 @@ def _expected_cost(group: tuple[str, str]) -> tuple[int, int]:
     (docs/benchmark.md#against-the-targets): shapes with concave corners first (the two-contact
     solve makes their steps 2–3× dearer), then tasks with obstacles (their trials run longest)."""
     task_key, shape_name = group
-    return len(make_shape(shape_name).corners), len(get_task(task_key).obstacles)
+    task = get_task(task_key)
+    return len(make_shape(shape_name).corners), len(task.obstacles) + len(task.polygons) + 3 * task.varies_by_seed
 
 
 def exit_with_parent(parent: int, poll_s: float = 1.0) -> None:
@@ -169,7 +171,7 @@ def exit_with_parent(parent: int, poll_s: float = 1.0) -> None:
 def _methods_for(task: Task, methods: Sequence[str]) -> tuple[str, ...]:
     """The methods that run on ``task``: those without obstacle support skip tasks with obstacles (GCS, as
     in the paper)."""
-    return tuple(m for m in methods if get_method(m).obstacles or not task.obstacles)
+    return tuple(m for m in methods if get_method(m).obstacles or not task.has_obstacles)
 
 
 def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, ...], methods: tuple[str, ...],
@@ -178,7 +180,15 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
     """The conditions of one task and shape (see :func:`run_benchmark`)."""
     task, shape = get_task(task_key), make_shape(shape_name)
     settings = settings or ControllerSettings()
-    problem = task.problem(shape, settings.weights)
+    problems: dict[int, Problem] = {}
+
+    def problem_of(seed: int) -> Problem:
+        """The trial's problem: the task's one, or seed ``seed``'s layout (the clutter family)."""
+        key = seed if task.varies_by_seed else -1
+        if key not in problems:
+            problems[key] = task.problem(shape, settings.weights, seed=seed if task.varies_by_seed else None)
+        return problems[key]
+
     names = {(p, m): condition_name(task.key, shape_name, p, m) for p in params for m in _methods_for(task, methods)}
     records: dict[str, dict[int, dict]] = {}
     specs: list[tuple[TrialSpec, str, str]] = []
@@ -186,12 +196,15 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
         records[name] = load_condition(out / "conditions" / f"{name}.json")
         specs += [(trial_spec(p, m, s), p, m) for s in seeds if s not in records[name]]
     owner = {id(spec): (p, m) for spec, p, m in specs}
+    # with one layout per seed, each seed's conditions share a batch as wide as there are of them (the same
+    # width for every seed, so one compiled program)
+    width = min(lanes, sum(batched(plant, m, sensor) for _, m in names)) if task.varies_by_seed else lanes
 
     def save(result: TrialResult) -> None:
         p, m = owner[id(result.spec)]
         name = names[(p, m)]
-        ep = make_episode(problem, Condition(task.key, shape_name, p, m), result,
-                          lanes if batched(plant, m, sensor) else 1, plant=plant,
+        ep = make_episode(problem_of(result.spec.seed), Condition(task.key, shape_name, p, m), result,
+                          width if batched(plant, m, sensor) else 1, plant=plant,
                           sensor=world_sensor(plant, sensor, result.spec.seed),
                           control_period=settings.mppi.control_period)
         records[name][result.spec.seed] = ep.summary()
@@ -204,14 +217,21 @@ def _run_group(out: Path, task_key: str, shape_name: str, *, params: tuple[str, 
     starts = partial(task.trial_start, shape)
     queued = [spec for spec, _, m in specs if batched(plant, m, sensor)]
     one_by_one = [(spec, m) for spec, _, m in specs if not batched(plant, m, sensor)]
-    if queued:
+    if queued and not task.varies_by_seed:
         if progress:
             print(f"{desc}: {len(queued)} trials in {lanes} lanes", file=sys.stderr, flush=True)
-        simulate(problem, queued, settings, starts=starts, max_steps=max_steps, lanes=lanes,
+        simulate(problem_of(0), queued, settings, starts=starts, max_steps=max_steps, lanes=lanes,
                  on_result=save, progress=progress, desc=desc)
+    elif queued:
+        bar = progress_bar(len(queued), desc, "trial", progress, position)
+        for seed in sorted({spec.seed for spec in queued}):
+            simulate(problem_of(seed), [q for q in queued if q.seed == seed], settings, starts=starts,
+                     max_steps=max_steps, lanes=width, on_result=save, desc=desc)
+            bar.update(sum(q.seed == seed for q in queued))
+        bar.close()
     bar = progress_bar(len(one_by_one), f"{desc} ({plant})", "trial", progress and bool(one_by_one), position)
     for spec, m in one_by_one:
-        save(run_trial(problem, starts, spec, m, plant, sensor, settings, max_steps, desc=desc))
+        save(run_trial(problem_of(spec.seed), starts, spec, m, plant, sensor, settings, max_steps, desc=desc))
         bar.update(1)
     bar.close()
     if figures:

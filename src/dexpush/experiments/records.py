@@ -88,6 +88,8 @@ class Episode:
     params: np.ndarray            #: (T, 3) λ_pred the controller planned with at each step
     goal: np.ndarray
     obstacles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    polygons: tuple = ()                     #: the problem's convex obstacles (corner arrays)
+    workspace: np.ndarray | None = None      #: the workspace's corners, or None
 
     def summary(self) -> dict:
         return asdict(self.record)
@@ -145,7 +147,8 @@ def make_episode(problem: Problem, condition: Condition, result: TrialResult, la
         clearance_m=round(float(gaps.min()), 5) if gaps is not None else None,
         diagnostics=(method or get_method(condition.method)).diagnostics(result), frames=result.frames)
     return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(problem.goal),
-                   np.asarray(problem.obstacles).reshape(-1, 3))
+                   np.asarray(problem.obstacles).reshape(-1, 3), tuple(np.asarray(p) for p in problem.polygons),
+                   None if problem.workspace is None else np.asarray(problem.workspace))
 
 
 def summarize(trials: list[dict]) -> dict:

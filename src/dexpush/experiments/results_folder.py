@@ -178,7 +178,7 @@ def draw_condition(out: Path, name: str, shape: Shape, task: Task, recs: dict[in
     """The condition's figure: every recorded trial's object path."""
     import matplotlib.pyplot as plt
 
-    from dexpush.viz import plot_condition
+    from dexpush.viz import plot_condition, plot_layouts
 
     trajs = load_trajectories(out / "trajectories" / f"{name}.npz")
     if not trajs:
@@ -186,9 +186,15 @@ def draw_condition(out: Path, name: str, shape: Shape, task: Task, recs: dict[in
     seeds = sorted(s for s in trajs if s in recs)
     ok = sum(recs[s]["success"] for s in seeds)
     first = recs[seeds[0]] if seeds else {}
-    fig = plot_condition(shape, [trajs[s] for s in seeds], [recs[s]["success"] for s in seeds], np.asarray(task.goal),
-               np.asarray(task.obstacles).reshape(-1, 3),
-               title=f"{name.replace('_', ' · ')} · {first.get('plant', 'model')} plant · camera: "
-                     f"{first.get('sensor', 'exact')}: {ok}/{len(seeds)} successes",
-               path=out / "figures" / f"{name}.png")
+    title = (f"{name.replace('_', ' · ')} · {first.get('plant', 'model')} plant · camera: "
+             f"{first.get('sensor', 'exact')}: {ok}/{len(seeds)} successes")
+    if task.varies_by_seed:
+        fig = plot_layouts(shape, [(task.problem(shape, seed=s), trajs[s], recs[s]["success"]) for s in seeds],
+                           title=title, path=out / "figures" / f"{name}.png")
+    else:
+        problem = task.problem(shape)
+        fig = plot_condition(shape, [trajs[s] for s in seeds], [recs[s]["success"] for s in seeds],
+                             np.asarray(problem.goal), np.asarray(problem.obstacles).reshape(-1, 3), title=title,
+                             path=out / "figures" / f"{name}.png", polygons=problem.polygons,
+                             workspace=problem.workspace)
     plt.close(fig)

@@ -113,7 +113,10 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
     robot = robot or RobotSettings()
     settings = settings or ControllerSettings()
     method = get_method(method)
-    problem = task.problem(shape, settings.weights)
+    problem = task.problem(shape, settings.weights, seed=seed)
+    if problem.polygons or problem.workspace is not None:
+        raise ValueError(f"task {task.key} has boxes, walls or a workspace bound; the robot's safety filter and "
+                         "simulated world take disc obstacles only (docs/workspaces.md)")
     pose, pusher = task.trial_start(shape, seed)
     if address is not None:           # a real object is where it is: the pusher starts where the task puts it
         pose, pusher = _start_at(np.asarray(sim.object_pose(), dtype=np.float64), pose, pusher)

@@ -98,13 +98,30 @@ def initial_conditions(task: Task, shape: Shape, seed: int) -> tuple[np.ndarray,
     jitter = np.array([rng.uniform(-j, j), rng.uniform(-j, j),
                        np.radians(rng.uniform(-task.start_jitter_deg, task.start_jitter_deg))])
     pose = np.asarray(task.start, dtype=np.float64) + jitter
-    phi = rng.uniform(-np.pi, np.pi)
-    r, _ = shape.contour(np.array(phi))
-    r = np.asarray(r, dtype=np.float64)
-    r = r * (1.0 + task.pusher_clearance_m / np.linalg.norm(r))
-    c, s = np.cos(pose[2]), np.sin(pose[2])
-    pusher = pose[:2] + np.array([c * r[0] - s * r[1], s * r[0] + c * r[1]])
-    return pose, pusher
+    # the azimuth is redrawn (from the same stream) while the pusher would start within PUSHER_START_GAP_M
+    # of an obstacle or a wall; Tasks I–III never redraw
+    for _ in range(100):
+        pusher = _pusher_start(shape, pose, rng, task.pusher_clearance_m)
+        if _pusher_gap(pusher, task) >= PUSHER_START_GAP_M + shape.pusher_radius:
+            return pose, pusher
+    raise ValueError(f"task {task.key}: no pusher start clear of the obstacles around the start pose")
+
+
+#: the least gap (m) between a trial's starting pusher disc and any obstacle or wall
+PUSHER_START_GAP_M = 0.02
+
+
+def _pusher_gap(pusher: np.ndarray, task: Task) -> float:
+    """The distance (m) from the pusher's centre to the nearest disc or polygon of ``task``, or to its
+    workspace boundary."""
+    from dexpush.problem.regions import point_gap, workspace_halfplanes
+
+    d = np.asarray(task.obstacles, np.float64).reshape(-1, 3)
+    gaps = [np.hypot(*(pusher - d[:, :2]).T) - d[:, 2]] + [np.atleast_1d(point_gap(pusher, p)) for p in task.polygons]
+    if task.workspace is not None:
+        h = workspace_halfplanes(task.workspace)
+        gaps.append(h[:, 2] - h[:, :2] @ pusher)
+    return float(np.min(np.concatenate(gaps), initial=np.inf))
 
 
 def _walled(lo_x: float, lo_y: float, hi_x: float, hi_y: float,
@@ -221,7 +238,7 @@ def _pusher_start(shape: Shape, pose: np.ndarray, rng: np.random.Generator, clea
     return pose[:2] + np.array([c * r[0] - s * r[1], s * r[0] + c * r[1]])
 
 
-TASKS["IV"] = Task("IV", "confined re-arrangement", (0.40, 0.0, float(-np.pi / 2)),
-                   obstacles=((0.15, 0.13, 0.03), (0.28, -0.12, 0.03), (0.47, 0.18, 0.025)),
-                   polygons=_walled(-0.15, -0.25, 0.55, 0.25, 0.02))
+TASKS["IV"] = Task("IV", "confined re-arrangement", (0.38, 0.0, float(-np.pi / 2)),
+                   obstacles=((0.16, 0.13, 0.03), (0.22, -0.20, 0.025), (0.42, 0.16, 0.025)),
+                   polygons=_walled(-0.20, -0.30, 0.50, 0.20, 0.02))
 TASKS["C"] = ClutterTask("C", "random clutter", (0.0, 0.0, 0.0))
