@@ -63,6 +63,12 @@ def test_physics_plant_with_a_realistic_camera_end_to_end(tmp_path: Path) -> Non
     (["run", "--max-steps", "0"], "must be a positive integer"),
     (["run", "--plant", "bullet"], "invalid choice: 'bullet'"),
     (["run", "--drop", "1.5"], "drop_prob must be in [0, 1)"),
+    (["run", "--wall", "0,0,1,1"], "--wall: expected 5 comma-separated numbers"),
+    (["run", "--wall", "0,0,0,0,0.02"], "a wall needs two distinct end points"),
+    (["run", "--scene", "missing.toml"], "scene file missing.toml: cannot read it"),
+    (["run", "--workspace", "0.2,-0.3,0.6,0.3"], "puts the object's footprint outside the workspace"),
+    (["run", "--obstacle-box", "0,0,0.1,0.1"], "the start of seed 0"),
+    (["run", "--task", "C", "--goal", "0.3,0,0"], "task C draws its own goal and layout per seed"),
     (["bench", "--seeds", "5-2"], "bad seed range"),
     (["bench", "--randomize"], "--randomize randomises the physics plant's world: use it with --plant physics"),
 ])
@@ -93,3 +99,12 @@ def test_the_cli_caches_compiled_programs_for_the_next_run(tmp_path: Path) -> No
                             timeout=600)
     assert second.returncode == 1, second.stderr
     assert sorted(p.name for p in cache.iterdir()) == entries   # and found again: nothing new compiled
+
+
+def test_a_run_in_a_scene_file_draws_its_walls_and_boxes(tmp_path: Path) -> None:
+    proc = dexpush("run", "--scene", "examples/scenes/tray.toml", "--goal", "0.45,0.1,90deg", "--max-steps", "5",
+                   "--no-animation", "--quiet", "--out", str(tmp_path))
+    assert proc.returncode == 1, proc.stderr             # 5 steps cannot reach the goal
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["task"] == "custom" and summary["collisions"] == 0 and summary["clearance_m"] > 0
+    assert (tmp_path / "trajectory.png").stat().st_size > 10_000

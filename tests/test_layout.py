@@ -33,7 +33,7 @@ INNER = {
                 "settings"}],
     "model": [{"polygons"}, {"radial_table", "convex_pieces"}, {"kernel"}, {"shape_file"}, {"shape", "corner"},
               {"cgvmm"}],
-    "problem": [{"weights", "regions"}, {"guidance"}, {"scene"}, {"obstacles"}, {"cost"}, {"problem"}],
+    "problem": [{"weights", "regions"}, {"guidance", "scene_file"}, {"scene"}, {"obstacles"}, {"cost"}, {"problem"}],
     "control": [{"noise", "ukf"}, {"mppi", "proposals", "estimator"}, {"settings"}, {"policy"}, {"controller"}],
     "world": [{"model_plant", "sensing"}, {"physics_plant"}, {"rendered_camera"}],
     "robot": [{"safety", "watchdog"}, {"guarded", "driver"}, {"franky_driver", "franka_sim"}],

@@ -20,20 +20,23 @@ __all__ = [
 ]
 
 
-def floats(count: int, what: str, angle_last: bool = False):
-    """An argparse type: ``count`` comma-separated numbers; with ``angle_last`` the last is an angle,
-    in radians or in degrees with ``deg`` (``30deg``)."""
+def floats(count: int | tuple[int, int], what: str, angle_last: bool = False):
+    """An argparse type: ``count`` comma-separated numbers (or (fewest, most), the optional last one an
+    angle); with ``angle_last`` the last is an angle, in radians or in degrees with ``deg`` (``30deg``)."""
+    fewest, most = (count, count) if isinstance(count, int) else count
+    expected = f"{fewest}" if fewest == most else f"{fewest} or {most}"
+
     def parse(text: str) -> tuple[float, ...]:
         parts = [t.strip() for t in text.split(",")]
         try:
-            if len(parts) != count:
+            if not fewest <= len(parts) <= most:
                 raise ValueError
-            degrees = angle_last and parts[-1].endswith("deg")
+            degrees = angle_last and len(parts) == most and parts[-1].endswith("deg")
             vals = [float(t) for t in parts[:-1]] + [float(parts[-1][:-3] if degrees else parts[-1])]
             if degrees:
                 vals[-1] = math.radians(vals[-1])
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{what}: expected {count} comma-separated numbers, got {text!r}") \
+            raise argparse.ArgumentTypeError(f"{what}: expected {expected} comma-separated numbers, got {text!r}") \
                 from None
         if not all(math.isfinite(v) for v in vals):
             raise argparse.ArgumentTypeError(f"{what}: numbers must be finite, got {text!r}")

@@ -69,8 +69,10 @@ def effective_config(args: argparse.Namespace, run_flags: bool = True):
     over: dict = {}
     if run_flags:
         over["run"] = {k: getattr(args, k) for k in _RUN_KEYS if getattr(args, k, None) is not None}
-        if getattr(args, "obstacle", None) is not None:
-            over["run"]["obstacles"] = args.obstacle
+        for flag, key in (("obstacle", "obstacles"), ("obstacle_box", "boxes"), ("wall", "walls"),
+                          ("table_workspace", "workspace"), ("scene", "scene")):
+            if getattr(args, flag, None) is not None:
+                over["run"][key] = getattr(args, flag)
     planner, args.planner_text = planner_overrides(args)
     camera, args.camera_text = camera_overrides(args)
     over = merge(merge(over, planner), camera)

@@ -9,6 +9,7 @@ file, defaults included, so the easiest start is to save that and edit it::
     shape = "examples/shapes/l_block.toml"   # rect, tee, ellipse, or a shape file (Shape.from_file)
     goal = [0.4, 0.2, 0.5]      # x (m), y (m), θ (rad) of the shape's reference point
     obstacles = [[0.2, 0.1, 0.03]]            # discs c_x, c_y, r (m)
+    scene = "examples/scenes/tray.toml"      # boxes, walls, workspace (docs/workspaces.md#scene-files)
     method = "mppi-ukf"
     lambda_pred = [20.0, 0.0, 0.0]            # the controller's first λ = [β, x_bf, y_bf]
     true_params = [30.0, 0.005, 0.0]          # the model plant's λ_true
@@ -23,7 +24,7 @@ file, defaults included, so the easiest start is to save that and edit it::
     [physics]                   # PhysicsSettings (the MuJoCo plant)
 
 Command-line flags override the file. Unknown keys are errors (with the allowed ones).
-A relative ``shape`` path is read relative to the config file.
+A relative ``shape`` or ``scene`` path is read relative to the config file.
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task
 from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C
 from dexpush.model.shape import Shape
 from dexpush.perception.markers import read_marker_layout
+from dexpush.problem.scene_file import Layout, load_scene
 from dexpush.world.model_plant import ModelPlant
 from dexpush.world.physics_plant import PhysicsPlant, PhysicsSettings
 from dexpush.world.rendered_camera import RenderSettings
@@ -75,10 +77,15 @@ __all__ = [
 class RunSettings:
     """What to push where, with which method, in which world (the ``[run]`` table)."""
 
-    task: str = "I"                #: I, II or III: start distribution, and goal/obstacles unless given
+    task: str = "I"                #: I, II, III, IV or C: start distribution, and goal/obstacles unless given
     shape: str = "rect"            #: rect, tee, ellipse, or a TOML shape file
     goal: tuple[float, float, float] | None = None          #: (x, y, θ) in m, m, rad; None: the task's
     obstacles: tuple[tuple[float, float, float], ...] | None = None   #: discs (c_x, c_y, r); None: the task's
+    #: a scene file (docs/workspaces.md#scene-files): its discs, boxes, walls and workspace replace the task's
+    scene: str | None = None
+    boxes: tuple[tuple[float, ...], ...] | None = None      #: boxes (c_x, c_y, width, height[, yaw rad])
+    walls: tuple[tuple[float, ...], ...] | None = None      #: walls (x0, y0, x1, y1, thickness)
+    workspace: tuple[float, float, float, float] | None = None   #: a rectangle (x_lo, y_lo, x_hi, y_hi)
     params: str = "known"          #: known (λ_pred = λ_true) or unknown (λ_pred starts at [15, 0, 0])
     lambda_pred: tuple[float, float, float] | None = None   #: the controller's first λ; overrides ``params``
     method: str = "mppi"           #: mppi, mppi-ukf or gcs
@@ -88,6 +95,16 @@ class RunSettings:
     mu: float | None = None        #: model plant's μ_c; None: 0.3
     max_steps: int = MAX_STEPS     #: N_max
     camera: str = "noise"          #: noise: [sensor]'s noise-model camera; rendered: images ([render], physics plants)
+
+    def layout(self) -> Layout | None:
+        """What the run keeps clear of when it replaces the task's (the scene file, then ``obstacles``,
+        ``boxes``, ``walls`` and ``workspace``), or None when none of them is given."""
+        given = (self.scene, self.obstacles, self.boxes, self.walls, self.workspace)
+        if all(v is None for v in given):
+            return None
+        layout = load_scene(self.scene) if self.scene is not None else Layout()
+        discs = Layout(tuple(tuple(float(v) for v in ob) for ob in self.obstacles or ()))
+        return layout.plus(discs).plus(Layout.from_flags(self.boxes or (), self.walls or (), self.workspace))
 
     def __post_init__(self) -> None:
         get_task(self.task)
@@ -101,6 +118,7 @@ class RunSettings:
         for i, ob in enumerate(self.obstacles or ()):
             c = checked_vector(f"obstacle {i}", ob, 3)
             check_positive(f"obstacle {i} radius", c[2], "metres")
+        self.layout()
         for name in ("lambda_pred", "true_params"):
             if getattr(self, name) is not None:
                 check_params(checked_vector(name, getattr(self, name), 3))
@@ -146,6 +164,9 @@ def load_config(path: str | os.PathLike, overrides: dict[str, dict] | None = Non
     shape = doc.get("run", {}).get("shape") if isinstance(doc.get("run"), dict) else None
     if isinstance(shape, str) and shape.endswith(".toml") and not Path(shape).is_absolute():
         doc["run"]["shape"] = str(path.parent / shape)
+    scene = doc.get("run", {}).get("scene") if isinstance(doc.get("run"), dict) else None
+    if isinstance(scene, str) and not Path(scene).is_absolute():
+        doc["run"]["scene"] = str(path.parent / scene)
     if "shape" in doc:                          # a shape table may live in the same file (Shape.from_file)
         doc.pop("shape")
         named = (overrides or {}).get("run", {}).get("shape", doc.get("run", {}).get("shape"))
@@ -183,13 +204,17 @@ def build_task(run: RunSettings) -> Task:
     """The task of a run: the named task, with the goal and obstacles replaced where given
     (then keyed ``custom``: its records are not the benchmark's)."""
     base = get_task(run.task)
-    if run.goal is None and run.obstacles is None:
+    layout = run.layout()
+    if run.goal is None and layout is None:
         return base
+    if base.varies_by_seed:
+        raise ValueError(f"task {base.key} draws its own goal and layout per seed: give --goal, --obstacle, "
+                         "--scene and the like with another task")
     goal = tuple(float(v) for v in run.goal) if run.goal is not None else base.goal
-    obstacles = tuple(tuple(float(v) for v in ob) for ob in run.obstacles) if run.obstacles is not None \
-        else base.obstacles
+    if layout is None:
+        layout = Layout(base.obstacles, base.polygons, base.workspace)
     return dataclasses.replace(base, key="custom", title=f"custom goal (start as task {base.key})", goal=goal,
-                               obstacles=obstacles)
+                               obstacles=layout.obstacles, polygons=layout.polygons, workspace=layout.workspace)
 
 
 def build_plant(config: RunConfig, shape: Shape) -> str | Plant:

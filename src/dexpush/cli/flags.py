@@ -29,6 +29,7 @@ __all__ = ["add_camera_flags", "add_planner_flags", "camera_overrides", "planner
 #: planner flag → (its argparse dest, the controller key it sets)
 _PLANNER = {
     "--detour": ("detour", ("weights", "detour")),
+    "--guidance": ("guidance", ("weights", "guidance")),
     "--stall-after": ("stall_after", ("stall", "after_s")),
     "--temperature": ("temperature", ("mppi", "temperature")),
     "--endgame-temperature": ("endgame_temperature", ("endgame", "temperature")),
@@ -49,6 +50,10 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
                    help="measure the goal distance round the obstacles (default), or straight through them "
                         "as eq. (9) is written (--no-detour; weights.detour; "
                         "docs/controller.md#going-round-obstacles-detour)")
+    g.add_argument("--guidance", action=argparse.BooleanOptionalAction, default=None,
+                   help="past obstacles and walls, the terminal cost and the stall watch follow the cost-to-go "
+                        "round them (default), or the straight goal distance (--no-guidance; weights.guidance; "
+                        "docs/workspaces.md#global-guidance)")
     g.add_argument("--stall-after", type=positive_or_off("a time in seconds"), default=None, metavar="SECONDS|off",
                    help="restart the planner after this long without progress and contact, or never (off) "
                         "(stall.after_s; docs/controller.md#stalls; default: 4)")
@@ -84,8 +89,8 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
 
 
 def _text(flag: str, value: Any) -> str:
-    if flag == "--detour":
-        return " --detour" if value else " --no-detour"
+    if flag in ("--detour", "--guidance"):
+        return f" {flag}" if value else f" --no-{flag[2:]}"
     return f" {flag} {value if isinstance(value, str) else f'{value:g}'}"
 
 

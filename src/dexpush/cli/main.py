@@ -73,7 +73,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="a configuration file (see --print-config for every key and its default)")
     what.add_argument("--print-config", action="store_true",
                       help="print the effective configuration as TOML and exit")
-    what.add_argument("--task", default=None, help="I, II or III: start distribution, goal, obstacles (default I)")
+    what.add_argument("--task", default=None,
+                      help="I, II, III, IV or C: start distribution, goal, obstacles (default I)")
     what.add_argument("--shape", default=None, metavar="NAME|FILE.toml",
                       help=f"{', '.join(SHAPES)}, or a shape file (docs/conventions.md#shapes) (default rect)")
     what.add_argument("--goal", type=floats(3, "--goal", angle_last=True), default=None, metavar="X,Y,THETA",
@@ -81,6 +82,17 @@ def build_parser() -> argparse.ArgumentParser:
                            "(default: the task's)")
     what.add_argument("--obstacle", type=floats(3, "--obstacle"), action="append", default=None,
                       metavar="CX,CY,R", help="a disc obstacle in m; repeat for more (default: the task's)")
+    what.add_argument("--obstacle-box", type=floats((4, 5), "--obstacle-box", angle_last=True), action="append",
+                      default=None, metavar="CX,CY,W,H[,YAW]",
+                      help="a box obstacle: centre and size in m, yaw in rad (or e.g. 30deg); repeat for more")
+    what.add_argument("--wall", type=floats(5, "--wall"), action="append", default=None, metavar="X0,Y0,X1,Y1,T",
+                      help="a wall from (x0, y0) to (x1, y1), t thick (m); repeat for more")
+    what.add_argument("--workspace", type=floats(4, "--workspace"), default=None, metavar="X0,Y0,X1,Y1",
+                      dest="table_workspace",
+                      help="the rectangle the object and the pusher must stay inside (m)")
+    what.add_argument("--scene", default=None, metavar="SCENE.toml",
+                      help="discs, boxes, walls and a workspace from a file (docs/workspaces.md#scene-files); "
+                           "a scene or any obstacle flag replaces the task's obstacles")
     what.add_argument("--seed", type=seed, default=None, help="start perturbation and MPPI sampling (default 0)")
     how = run.add_argument_group("controller and world")
     how.add_argument("--method", default=None, choices=method_names(),
@@ -115,8 +127,8 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument("--sim", action="store_true", help="the simulated FR3 on 127.0.0.1, started and shut down "
                                                          "here (the default)")
     where.add_argument("--robot", metavar="ADDRESS", default=None, help="a real Franka's FCI address")
-    for action in what._group_actions:
-        if action.dest != "print_config":
+    for action in what._group_actions:     # the robot's safety filter has no boxes or walls yet (docs/workspaces.md)
+        if action.dest not in ("print_config", "obstacle_box", "wall", "table_workspace"):
             rob._add_action(action)
     for name in ("method", "params", "lambda_pred"):
         rob._add_action(next(a for a in how._group_actions if a.dest == name))
@@ -136,7 +148,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="the paper's Sec. IV-B table (batched, resumable)")
     bench.add_argument("--tasks", default="I,II,III",
-                       help="comma-separated tasks from I, II, III, IV (confined), C (random clutter) (default I,II,III)")
+                       help="comma-separated tasks from I, II, III, IV (confined), C (random clutter) "
+                            "(default I,II,III)")
     bench.add_argument("--shapes", default="rect,tee",
                        help=f"comma-separated shapes from {', '.join(SHAPES)} (default rect,tee)")
     bench.add_argument("--params", default="known,unknown",
@@ -222,7 +235,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 #: flags whose value may be a negative number (argparse takes "-0.3,0.2,0" for an option)
-_NUMERIC_FLAGS = ("--goal", "--obstacle", "--lambda-pred", "--true-params")
+_NUMERIC_FLAGS = ("--goal", "--obstacle", "--obstacle-box", "--wall", "--workspace", "--lambda-pred",
+                  "--true-params")
 
 
 def _joined_negatives(argv: Sequence[str]) -> list[str]:

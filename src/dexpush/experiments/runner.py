@@ -204,6 +204,7 @@ def run_episode(task: str | Task = "I", shape: str | Shape = "rect", params: str
         raise ValueError(f"unknown plant {plant!r}; choose one of {', '.join(PLANTS)}")
     settings = settings or ControllerSettings()
     problem = task.problem(shape, settings.weights, seed=seed)
+    problem.check_start(*task.trial_start(shape, seed), what=f"the start of seed {seed}")
     result = run_trial(problem, lambda s: task.trial_start(shape, s), spec, method, plant, sensor, settings, max_steps,
                        progress, lanes, chunk, desc=f"task {task.key} {shape.name}")
     condition = Condition(task.key, shape_name, params if isinstance(params, str) else "custom", method.name)

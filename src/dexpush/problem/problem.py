@@ -165,6 +165,15 @@ class Problem:
             return np.full(x.shape[:-1], np.inf)
         return np.asarray(clearance_jit(x, self.judge_scene))
 
+    def check_start(self, object_pose: object, pusher: object, what: str = "the start") -> None:
+        """A one-line ``ValueError`` when the object's footprint or the pusher at ``what`` touches an obstacle
+        or leaves the workspace."""
+        gap = float(self.clearance(np.concatenate([np.ravel(object_pose), np.ravel(pusher)])[None])[0])
+        if gap <= 0:
+            raise ValueError(f"{what} (object at {tuple(round(float(v), 3) for v in np.ravel(object_pose))}, pusher "
+                             f"at {tuple(round(float(v), 3) for v in np.ravel(pusher))}) touches an obstacle or leaves "
+                             f"the workspace (by {-gap * 1e3:.1f} mm): move the obstacles or the start")
+
     def with_weights(self, weights: CostWeights) -> Problem:
         """The same problem at the cost ``weights``."""
         return Problem(self.shape, self.goal, self.obstacles, weights, self.tolerance_m, self.tolerance_deg,
