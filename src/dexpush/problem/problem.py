@@ -28,11 +28,17 @@ from dexpush.problem.regions import convex_polygon, workspace_halfplanes
 from dexpush.problem.scene import Scene, obstacle_array
 from dexpush.problem.weights import CostWeights
 
-__all__ = ["COST_OUTLINE_EDGES", "SUCCESS_HEADING_DEG", "SUCCESS_POSITION_M", "Problem", "is_success"]
+__all__ = ["COST_OUTLINE_EDGES", "COST_PIECE_CORNERS", "SUCCESS_HEADING_DEG", "SUCCESS_POSITION_M", "Problem",
+           "is_success"]
 
 #: the most edges of the footprint outline the cost's obstacle terms see (a convex footprint with more,
 #: an ellipse's 256, is replaced by a circumscribed polygon of this many; docs/performance.md)
 COST_OUTLINE_EDGES = 32
+#: the most corners of a footprint piece the cost's polygon gaps see (an ellipse's is replaced by a
+#: circumscribed 12-gon, at most 3.5 % of its radius outside it): each of a polygon's separating-axis gaps
+#: costs (corners × the polygon's corners) in every rollout step, and 32 made the ellipse's steps 20×
+#: dearer than the box's (docs/workspaces.md#cost)
+COST_PIECE_CORNERS = 12
 
 #: the paper's success test (Sec. IV-B): position error below 8 mm ...
 SUCCESS_POSITION_M = 0.008
@@ -111,14 +117,15 @@ class Problem:
         put(self, "guide", guide)
         put(self, "contour", Contour.of(self.shape))
         put(self, "scene", Scene.make(self.shape, goal, discs, self.weights, COST_OUTLINE_EDGES, polys, bounds,
-                                      guide, self.pad_to))
+                                      guide, self.pad_to, COST_PIECE_CORNERS))
         put(self, "origin", origin)
         shift = origin * [1.0, 1.0, 0.0]
         # a half-plane n·p ≤ o seen from the origin: n·(p − origin) ≤ o − n·origin
         local_bounds = None if bounds is None else np.c_[bounds[:, :2], bounds[:, 2] - bounds[:, :2] @ origin[:2]]
         put(self, "local_scene", Scene.make(self.shape, goal - origin, discs - shift, self.weights, COST_OUTLINE_EDGES,
                                             tuple(p - origin[:2] for p in polys), local_bounds,
-                                            None if guide is None else guide.shifted(origin), self.pad_to))
+                                            None if guide is None else guide.shifted(origin), self.pad_to,
+                                            COST_PIECE_CORNERS))
         put(self, "judge_scene", Scene.make(self.shape, goal, discs, self.weights, None, polys, bounds,
                                             pad_to=self.pad_to))
         self._check_goal_fits()

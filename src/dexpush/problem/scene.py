@@ -20,8 +20,8 @@ from dexpush.problem.weights import CostWeights
 
 __all__ = ["INERT_M", "JUDGE_PIECE_CORNERS", "Scene", "footprint_pieces", "obstacle_array", "padded_polygons"]
 
-#: the most corners of a footprint piece the polygon and workspace gaps see without ``max_edges`` (the
-#: judge's scene): a circumscribed 64-gon lies within 0.13 mm of the ellipse's 256-gon
+#: the most corners of a footprint piece the polygon gaps see by default (the judge's scene): a
+#: circumscribed 64-gon lies within 0.13 mm of the ellipse's 256-gon
 JUDGE_PIECE_CORNERS = 64
 
 #: where the inert obstacles of a padded scene lie (m along x and y): far beyond any margin
@@ -72,9 +72,10 @@ class Scene:
     def make(shape: Shape, goal: object, obstacles: object = (), weights: CostWeights | None = None,
              max_edges: int | None = None, polygons: tuple[np.ndarray, ...] = (),
              bounds: np.ndarray | None = None, guide: CostToGo | None = None,
-             pad_to: tuple[int, int] = (0, 0)) -> Scene:
+             pad_to: tuple[int, int] = (0, 0), max_piece_corners: int = JUDGE_PIECE_CORNERS) -> Scene:
         """The cost's view of a task; with ``max_edges``, the footprint's outline has at most that many
-        edges where the footprint is convex (:meth:`dexpush.model.shape.Shape.outline_edges`).
+        edges where the footprint is convex (:meth:`dexpush.model.shape.Shape.outline_edges`), and its
+        convex pieces (what the polygon gaps see) at most ``max_piece_corners`` corners.
         ``polygons`` are convex obstacle polygons (checked by
         :func:`dexpush.problem.regions.convex_polygon`), ``bounds`` the workspace's half-planes
         (:func:`dexpush.problem.regions.workspace_halfplanes`), ``guide`` the cost-to-go, all in the
@@ -107,7 +108,7 @@ class Scene:
             reach = float(np.max(np.hypot(a[:, 0], a[:, 1])))
             rho = np.minimum(obs[:, 2] + w.obstacle_margin_m + reach, np.hypot(*(g[None, :2] - obs[:, :2]).T))
         poly, planes = padded_polygons(polygons)
-        pieces, piece_planes = padded_polygons(footprint_pieces(shape, max_edges or JUDGE_PIECE_CORNERS))
+        pieces, piece_planes = padded_polygons(footprint_pieces(shape, max_piece_corners))
         bounds = np.zeros((0, 3)) if bounds is None else np.asarray(bounds, np.float64).reshape(-1, 3)
         values, lo, cell = (np.zeros((0, 0)), np.zeros(2), 1.0) if guide is None else (guide.values, guide.lo,
                                                                                            guide.cell)
