@@ -212,3 +212,18 @@ def test_flags_make_boxes_and_walls() -> None:
     assert len(layout.polygons) == 2 and layout.workspace == (-1.0, -1.0, 1.0, 1.0)
     with pytest.raises(ValueError, match="box height"):
         Layout.from_flags([(0.3, 0.0, 0.1, -0.05)])
+
+
+def test_the_guidance_and_layout_figures_draw_a_clutter_layout(tmp_path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from dexpush.viz import plot_guidance, plot_layouts
+
+    problem, start, pusher = TASKS["C"].layout(RECT, 3)
+    states = np.array([[*start, *pusher], [*problem.goal, *pusher]])
+    plt.close(plot_guidance(RECT, problem, states, title="t", path=tmp_path / "g.png"))
+    plt.close(plot_layouts(RECT, [(problem, states, True), (problem, states, False)], path=tmp_path / "l.png"))
+    assert (tmp_path / "g.png").stat().st_size > 10_000 and (tmp_path / "l.png").stat().st_size > 5_000

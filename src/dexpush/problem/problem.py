@@ -69,7 +69,7 @@ class Problem:
     position: float32 keeps its resolution wherever the world frame is), and ``judge_scene`` (the
     footprint's own edges: what :meth:`collides` and :meth:`clearance` judge a trial by), and
     ``guide`` (the cost-to-go round the obstacles, :mod:`dexpush.problem.guidance`; None without
-    obstacles or with ``weights.guidance`` off).
+    polygons and workspace, or with ``weights.guidance`` off).
     """
 
     shape: Shape
@@ -111,7 +111,9 @@ class Problem:
         put(self, "polygons", tuple(tuple((float(x), float(y)) for x, y in p) for p in polys))
         put(self, "workspace", None if corners is None else tuple((float(x), float(y)) for x, y in corners))
         guide = None
-        if self.weights.guidance and (len(discs) or polys or bounds is not None):
+        # disc-only scenes keep the detour round the discs (docs/workspaces.md#global-guidance: on Task III
+        # the cost-to-go, whose footprint may turn to fit, led the T into the gap beside the disc)
+        if self.weights.guidance and (polys or bounds is not None):
             guide = cost_to_go(self.shape.polygons, self.shape.bounding_radius, goal, discs, polys, corners,
                                self.weights.obstacle_margin_m, self.weights.guidance_cell_m)
         put(self, "guide", guide)

@@ -36,8 +36,9 @@ class CostWeights:
     #: the margin in (9e) would. See docs/controller.md#the-margin.
     C_margin: float | None = 1e9
     #: measure the goal distance of d² along the cost-to-go round every obstacle and inside the workspace
-    #: (:mod:`dexpush.problem.guidance`; it supersedes ``detour``) when the problem has any; False keeps
-    #: the detour round discs. See docs/workspaces.md.
+    #: (:mod:`dexpush.problem.guidance`; it supersedes ``detour``) when the problem has boxes, walls or a
+    #: workspace bound (scenes of discs only keep the detour); False keeps the detour round the discs.
+    #: See docs/workspaces.md#global-guidance.
     guidance: bool = True
     #: the cost-to-go's grid spacing (m)
     guidance_cell_m: float = 0.02
