@@ -36,7 +36,8 @@ def _shape(kind: str) -> dexpush.Shape:
 
 
 def _obstacles(m: int) -> tuple[tuple[float, float, float], ...]:
-    return tuple((0.25 + 0.12 * (k // 2), (0.2 if k % 2 else -0.2) + 0.05 * (k // 2), 0.03) for k in range(m))
+    """``m`` discs beside the way to the goal (0.6, 0, 0), alternately above and below it, clear of the goal."""
+    return tuple((0.25 + 0.12 * (k // 2), (0.2 if k % 2 else -0.2) * (1 + 0.25 * (k // 2)), 0.03) for k in range(m))
 
 
 def main() -> None:

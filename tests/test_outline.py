@@ -29,13 +29,13 @@ def test_a_circumscribed_polygon_contains_the_polygon(points, edges) -> None:
     assert np.all(inside_polygon(shrunk, outline) | (np.linalg.norm(shrunk - hull, axis=1) < 1e-9))
 
 
-def test_the_ellipse_is_seen_by_the_cost_through_32_edges_within_a_millimetre() -> None:
+def test_the_ellipse_is_seen_by_the_cost_through_12_edges_within_5_mm() -> None:
     from dexpush.model.polygons import distance_to_polygons
 
     shape = Shape.ellipse()
     a, _ = shape.outline_edges(COST_OUTLINE_EDGES)
     assert len(shape.edges[0]) == 256 and len(a) == COST_OUTLINE_EDGES
-    assert float(distance_to_polygons(a, shape.polygons).max()) < 1e-3       # 0.79 mm at the corners
+    assert float(distance_to_polygons(a, shape.polygons).max()) < 5e-3       # 4.9 mm at the corners
     rect = Shape.rectangle()
     np.testing.assert_array_equal(rect.outline_edges(COST_OUTLINE_EDGES)[0], rect.edges[0])   # few edges: itself
 

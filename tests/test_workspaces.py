@@ -89,10 +89,10 @@ def test_the_array_reductions_give_the_unrolled_gaps(name: str) -> None:
     arrays = [np.asarray(b) for b, _ in _polygon_gaps_vectorised(x, scene)]
     np.testing.assert_allclose(arrays, unrolled, atol=1e-6)
     # the judge's 256-edge ellipse takes the array path for the discs; its gaps agree with the cost's
-    # 32-edge outline (circumscribed) to the outline's sag
+    # 12-edge outline (circumscribed) to the outline's 4.9 mm sag
     judge = [np.asarray(d2) for _, _, d2, _, _ in obstacle_distances(x, problem.judge_scene)]
     cost = [np.asarray(d2) for _, _, d2, _, _ in obstacle_distances(x, scene)]
-    np.testing.assert_allclose(np.sqrt(judge), np.sqrt(cost), atol=3e-3)
+    np.testing.assert_allclose(np.sqrt(judge), np.sqrt(cost), atol=5e-3)
 
 
 def test_workspace_gap_is_exact_for_a_box_in_a_rectangle() -> None:

@@ -31,13 +31,11 @@ from dexpush.problem.weights import CostWeights
 __all__ = ["COST_OUTLINE_EDGES", "COST_PIECE_CORNERS", "SUCCESS_HEADING_DEG", "SUCCESS_POSITION_M", "Problem",
            "is_success"]
 
-#: the most edges of the footprint outline the cost's obstacle terms see (a convex footprint with more,
-#: an ellipse's 256, is replaced by a circumscribed polygon of this many; docs/performance.md)
-COST_OUTLINE_EDGES = 32
-#: the most corners of a footprint piece the cost's polygon gaps see (an ellipse's is replaced by a
-#: circumscribed 12-gon, at most 3.5 % of its radius outside it): each of a polygon's separating-axis gaps
-#: costs (corners × the polygon's corners) in every rollout step, and 32 made the ellipse's steps 20×
-#: dearer than the box's (docs/workspaces.md#cost)
+#: the most edges of the footprint outline the cost's disc terms see (a convex footprint with more, an
+#: ellipse's 256, is replaced by a circumscribed polygon of this many): the terms are unrolled over edges ×
+#: obstacles, and past a size XLA's fused step slows ~10× (docs/performance.md, obstacle terms)
+COST_OUTLINE_EDGES = 12
+#: the most corners of a footprint piece the cost's polygon gaps see (likewise circumscribed)
 COST_PIECE_CORNERS = 12
 
 #: the paper's success test (Sec. IV-B): position error below 8 mm ...
