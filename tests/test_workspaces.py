@@ -227,3 +227,14 @@ def test_the_guidance_and_layout_figures_draw_a_clutter_layout(tmp_path) -> None
     plt.close(plot_guidance(RECT, problem, states, title="t", path=tmp_path / "g.png"))
     plt.close(plot_layouts(RECT, [(problem, states, True), (problem, states, False)], path=tmp_path / "l.png"))
     assert (tmp_path / "g.png").stat().st_size > 10_000 and (tmp_path / "l.png").stat().st_size > 5_000
+
+
+def test_goals_outside_the_workspace_and_custom_clutter_goals_are_refused() -> None:
+    from dexpush.cli.config import RunSettings, build_task
+
+    with pytest.raises(ValueError, match="outside the workspace"):
+        Problem(RECT, (0.6, 0.3, 0.0), workspace=(0.2, -0.3, 0.6, 0.3))
+    with pytest.raises(ValueError, match="task C draws its own goal"):
+        build_task(RunSettings(task="C", goal=(0.3, 0.0, 0.0)))
+    with pytest.raises(ValueError, match="a wall needs two distinct end points"):
+        RunSettings(walls=((0.0, 0.0, 0.0, 0.0, 0.02),))

@@ -102,7 +102,8 @@ def initial_conditions(task: Task, shape: Shape, seed: int) -> tuple[np.ndarray,
     # of an obstacle or a wall; Tasks I–III never redraw
     for _ in range(100):
         pusher = _pusher_start(shape, pose, rng, task.pusher_clearance_m)
-        if _pusher_gap(pusher, task) >= PUSHER_START_GAP_M + shape.pusher_radius:
+        gap = _pusher_gap(pusher, task.obstacles, task.polygons, task.workspace)
+        if gap >= PUSHER_START_GAP_M + shape.pusher_radius:
             return pose, pusher
     raise ValueError(f"task {task.key}: no pusher start clear of the obstacles around the start pose")
 
@@ -111,15 +112,15 @@ def initial_conditions(task: Task, shape: Shape, seed: int) -> tuple[np.ndarray,
 PUSHER_START_GAP_M = 0.02
 
 
-def _pusher_gap(pusher: np.ndarray, task: Task) -> float:
-    """The distance (m) from the pusher's centre to the nearest disc or polygon of ``task``, or to its
-    workspace boundary."""
+def _pusher_gap(pusher: np.ndarray, discs: object, polygons: object, workspace: object) -> float:
+    """The distance (m) from the pusher's centre to the nearest of the ``discs`` (c_x, c_y, r) and convex
+    ``polygons``, or to the ``workspace`` boundary (None: unbounded)."""
     from dexpush.problem.regions import point_gap, workspace_halfplanes
 
-    d = np.asarray(task.obstacles, np.float64).reshape(-1, 3)
-    gaps = [np.hypot(*(pusher - d[:, :2]).T) - d[:, 2]] + [np.atleast_1d(point_gap(pusher, p)) for p in task.polygons]
-    if task.workspace is not None:
-        h = workspace_halfplanes(task.workspace)
+    d = np.asarray(discs, np.float64).reshape(-1, 3)
+    gaps = [np.hypot(*(pusher - d[:, :2]).T) - d[:, 2]] + [np.atleast_1d(point_gap(pusher, p)) for p in polygons]
+    if workspace is not None:
+        h = workspace_halfplanes(workspace)
         gaps.append(h[:, 2] - h[:, :2] @ pusher)
     return float(np.min(np.concatenate(gaps), initial=np.inf))
 
@@ -189,9 +190,7 @@ class ClutterTask(Task):
             if not field.connects(start):
                 continue
             pusher = _pusher_start(shape, start, rng, self.pusher_clearance_m)
-            gaps = [np.hypot(*(pusher - d[:, :2]).T) - d[:, 2] if len(d) else [1.0]]
-            gaps += [point_gap(pusher, p) for p in polys]
-            if np.min(np.concatenate([np.ravel(g) for g in gaps])) < 0.02 or np.any(np.abs(pusher) > half - 0.02):
+            if _pusher_gap(pusher, d, polys, (-half, -half, half, half)) < PUSHER_START_GAP_M:
                 continue
             problem = Problem(shape, tuple(goal), tuple(map(tuple, d)),
                               polygons=tuple(tuple(map(tuple, p)) for p in polys),
