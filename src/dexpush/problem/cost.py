@@ -118,10 +118,12 @@ def goal_distance_sq(x: State, scene: Scene, c: float) -> jnp.ndarray:
 def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: Scene, c: float,
                       guided: bool = True) -> jnp.ndarray:
     if guided and scene.guide is not None and scene.guide.shape[0] > 0:
-        return guided_length_sq(xb, yb, scene) + c * (1.0 - fastmath.cos(th - scene.goal[2]))
-    if scene.detour_radius is None or scene.detour_radius.shape[0] == 0:
+        length_sq = guided_length_sq(xb, yb, scene)
+    elif scene.detour_radius is not None and scene.detour_radius.shape[0] > 0:
+        length_sq = detour_length_sq(xb, yb, scene)
+    else:
         return _distance_sq(xb, yb, th, scene.goal, c)
-    return detour_length_sq(xb, yb, scene) + c * (1.0 - fastmath.cos(th - scene.goal[2]))
+    return length_sq + c * (1.0 - fastmath.cos(th - scene.goal[2]))
 
 
 #: the least margin (m) a plan keeps (:func:`plan_margin`): below it the depth fraction is too steep
