@@ -69,10 +69,22 @@ def test_physics_plant_with_a_realistic_camera_end_to_end(tmp_path: Path) -> Non
     (["bench", "--seeds", "5-2"], "bad seed range"),
     (["bench", "--randomize"], "--randomize randomises the physics plant's world: use it with --plant physics"),
 ])
-def test_bad_arguments_give_one_clear_line(args, message, tmp_path: Path) -> None:
-    proc = dexpush(*args, "--out", str(tmp_path))
+def test_bad_arguments_give_one_clear_line(args, message, tmp_path: Path, capsys) -> None:
+    try:                                   # in-process; the installed entry point is run below
+        code = main([*args, "--out", str(tmp_path)])
+    except SystemExit as exc:              # argparse's own errors
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert message in lines[-1] and sum("error:" in line for line in lines) == 1   # (usage, then) one line
+    assert "Traceback" not in err
+
+
+def test_a_bad_argument_is_one_line_from_the_entry_point(tmp_path: Path) -> None:
+    proc = dexpush("run", "--plant", "physics", "--mu", "0.4", "--out", str(tmp_path))
     assert proc.returncode == 2
-    assert message in proc.stderr
+    assert "true_params and mu set the model plant" in proc.stderr.strip().splitlines()[-1]
     assert "Traceback" not in proc.stderr
 
 

@@ -152,12 +152,17 @@ def _clearance_reference(shape: Shape, x: np.ndarray, disc: np.ndarray) -> float
     return min(body, float(np.linalg.norm(x[3:] - centre)) - r - shape.pusher_radius)
 
 
+@functools.cache
+def _builtin_shape(name: str) -> Shape:
+    return Shape.tee() if name == "tee" else Shape.rectangle()
+
+
 @given(st.floats(-0.35, 0.35), st.floats(-0.35, 0.35), st.floats(-np.pi, np.pi), st.floats(0.01, 0.08),
        st.sampled_from(["rect", "tee"]))
 def test_clearance_matches_a_float64_reference(ox: float, oy: float, th: float, r: float, name: str) -> None:
     from dexpush.problem.obstacles import clearance, collides
 
-    shape = Shape.tee() if name == "tee" else Shape.rectangle()
+    shape = _builtin_shape(name)
     x = np.array([0.01, -0.02, th, 0.15 * np.cos(3 * th), 0.15 * np.sin(3 * th)])
     disc = np.array([ox, oy, r])
     scene = Scene.make(shape, (0.6, 0.0, 0.0), (disc,))

@@ -121,9 +121,13 @@ def test_validate_mit_cli(folder: Path, tmp_path: Path) -> None:
     assert set(summary["online"]) == {"rect1"} and "nmse_online" in summary["online"]["rect1"]
     for name in ("mode_decisions.png", "confusion.png", "validation.json", "online.json", "lambda.png"):
         assert (tmp_path / name).stat().st_size > 0
-    missing = subprocess.run([sys.executable, "-m", "dexpush.cli", "validate-mit", str(tmp_path / "nope")],
-                             capture_output=True, text=True, timeout=120)
-    assert missing.returncode == 2 and "data folder not found" in missing.stderr
+
+
+def test_validate_mit_names_a_missing_folder(tmp_path: Path, capsys) -> None:
+    from dexpush.cli import main
+
+    assert main(["validate-mit", str(tmp_path / "nope"), "--out", str(tmp_path / "o")]) == 2
+    assert "data folder not found" in capsys.readouterr().err
 
 
 def test_a_stationary_pusher_or_an_all_nan_stream_is_one_clear_error(tmp_path: Path, capsys) -> None:

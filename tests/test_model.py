@@ -26,13 +26,17 @@ def contact_states(shape: Shape, rng: np.random.Generator, n: int, depth: float 
     """Random scenes with the pusher on (or ``depth`` inside) the contour, random pose and input.
 
     Single-contact states: points within 3 mm of a concave corner (two contacts, tests/test_corner.py)
-    are left out, so slightly fewer than ``n`` come back for the T."""
-    phi = rng.uniform(-np.pi, np.pi, n)
-    r, _ = shape.contour(phi)
-    r = np.asarray(r, np.float64)
-    if len(shape.corners):
-        far = np.min(np.linalg.norm(r[:, None, :] - shape.corners[None, :, :2], axis=-1), axis=1) > 3e-3
-        phi, r = phi[far], r[far]
+    are left out and drawn again, so always ``n`` come back (one compiled batch size per shape)."""
+    phi = np.zeros(0)
+    while len(phi) < n:
+        more = rng.uniform(-np.pi, np.pi, n)
+        r, _ = shape.contour(more)
+        r = np.asarray(r, np.float64)
+        if len(shape.corners):
+            more = more[np.min(np.linalg.norm(r[:, None, :] - shape.corners[None, :, :2], axis=-1), axis=1) > 3e-3]
+        phi = np.concatenate([phi, more])
+    phi = phi[:n]
+    r = np.asarray(shape.contour(phi)[0], np.float64)
     x, u, lam = scenes_with_pusher_at(rng, r * (1.0 - depth))
     return x, u, lam, phi
 

@@ -166,9 +166,13 @@ def test_stall_settings_are_checked() -> None:
         ControllerSettings(stall=StallSettings(backoff=0.9))
 
 
+@functools.cache
+def _compiled_plan(settings: ControllerSettings):
+    return jax.jit(functools.partial(plan_step, contour=CONTOUR, scene=SCENE, settings=settings))
+
+
 def _plan(settings: ControllerSettings, x: jnp.ndarray) -> np.ndarray:
-    plan = jax.jit(functools.partial(plan_step, contour=CONTOUR, scene=SCENE, settings=settings))
-    return np.asarray(plan(policy_init(LAMBDA_TRUE, settings, 5), x)[0].sequence)
+    return np.asarray(_compiled_plan(settings)(policy_init(LAMBDA_TRUE, settings, 5), x)[0].sequence)
 
 
 def test_near_the_goal_the_plan_weights_its_samples_with_the_endgame_temperature() -> None:
