@@ -188,6 +188,57 @@ def test_clearance_is_the_same_wherever_the_scene_is_put() -> None:
     assert float(clearance(jnp.asarray(x), Scene.make(shape, (0.6, 0, 0)))) == np.inf
 
 
+@functools.cache
+def _disc_gaps_compiled():
+    from dexpush.problem.obstacles import nearest_obstacle_distances, obstacle_distances
+
+    def gaps(rows, rp):
+        return jnp.stack([jnp.minimum(jnp.where(inside, -r, jnp.sqrt(d2) - r), jnp.sqrt(pd2) - r - rp)
+                          for r, d2, inside, pd2 in rows], -1)
+
+    @jax.jit
+    def both(x, scene):
+        rows = [(r, d2, inside, pd2) for _, r, d2, inside, pd2 in obstacle_distances(x, scene)]
+        return gaps(nearest_obstacle_distances(x, scene), scene.pusher_radius), gaps(rows, scene.pusher_radius)
+    return both
+
+
+@hypothesis_settings(max_examples=25)
+@given(st.integers(0, 2**31 - 1), st.sampled_from(["ellipse", "tee"]))
+def test_beyond_the_nearest_discs_the_cost_under_states_gaps_and_never_misses_a_touch(seed: int, name: str) -> None:
+    """Six discs, more than ``EXACT_NEAREST_DISCS``: each disc's gap as the cost sees it is never more than
+    its exact gap (so a touch is never missed), and where no more than that many discs come near the
+    footprint's bounding box the gaps within the margin are the exact ones."""
+    from dexpush.problem.obstacles import EXACT_NEAREST_DISCS
+
+    rng = np.random.default_rng(seed)
+    shape = Shape.ellipse(0.115, 0.04) if name == "ellipse" else _builtin_shape("tee")
+    discs = np.stack([rng.uniform(-0.3, 0.3, 6), rng.uniform(-0.3, 0.3, 6), rng.uniform(0.01, 0.06, 6)], -1)
+    scene = Scene.make(shape, (0.6, 0.0, 0.0), discs, max_edges=12)
+    n = 512
+    th = rng.uniform(-np.pi, np.pi, n)
+    x = np.stack([rng.uniform(-0.2, 0.2, n), rng.uniform(-0.2, 0.2, n), th,
+                  rng.uniform(-0.3, 0.3, n), rng.uniform(-0.3, 0.3, n)], -1).astype(np.float32)
+    seen, exact = (np.sort(np.asarray(g, np.float64), -1) for g in _disc_gaps_compiled()(jnp.asarray(x), scene))
+    assert np.all(np.isinf(seen[:, 6:]))                      # the nearest masked out where they are bounded
+    seen = seen[:, :6]
+    # never over-stated (to float32 round-off; sorted, so neither is each disc's gap): a touch is never missed
+    assert np.all(seen <= exact + 1e-6)
+    assert np.any(exact[:, 0] <= 0) and np.all(seen[exact[:, 0] <= 0, 0] <= 1e-6)
+    # the bounding box's gap to each disc, as the selection sees it (float64 here)
+    a = np.asarray(scene.edge_a, np.float64)
+    lo, hi = a.min(0), a.max(0)
+    c, s = np.cos(x[:, 2:3]), np.sin(x[:, 2:3])
+    dx, dy = discs[:, 0] - x[:, 0:1], discs[:, 1] - x[:, 1:2]
+    px, py = c * dx + s * dy, -s * dx + c * dy
+    box = np.hypot(np.maximum(np.maximum(lo[0] - px, px - hi[0]), 0), np.maximum(np.maximum(lo[1] - py, py - hi[1]), 0))
+    m = CostWeights().obstacle_margin_m
+    few = np.sum(box - discs[:, 2] < m + 1e-4, -1) <= EXACT_NEAREST_DISCS
+    assert few.sum() > n // 4                                 # the comparison below is not empty
+    np.testing.assert_allclose(np.minimum(seen[few], m), np.minimum(exact[few], m), rtol=0, atol=1e-6)
+    assert np.any(seen < exact - 1e-3)                        # (and beyond the nearest the bound is used)
+
+
 def test_inside_the_margin_the_cost_grows_with_the_depth_and_a_touch_costs_c_pen() -> None:
     from dexpush.problem.cost import obstacle_cost
 

@@ -23,7 +23,7 @@ import jax.numpy as jnp
 from dexpush.common import fastmath
 from dexpush.model.cgvmm import State, components
 from dexpush.problem.guidance import GRID_STRETCH
-from dexpush.problem.obstacles import clearance, obstacle_distances, overlaps, region_gaps
+from dexpush.problem.obstacles import clearance, nearest_obstacle_distances, overlaps, region_gaps
 from dexpush.problem.scene import Scene
 from dexpush.problem.weights import CostWeights
 
@@ -161,7 +161,7 @@ def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
     depth = jnp.zeros(jnp.shape(xb), dtype=jnp.result_type(xb, jnp.float32))
     rp = scene.pusher_radius
     graded = w.C_margin is not None and w.obstacle_margin_m > 0
-    for _, r, d2, inside, pd2 in obstacle_distances(x, scene):
+    for r, d2, inside, pd2 in nearest_obstacle_distances(x, scene):
         touch = touch | overlaps(r if graded else r + w.obstacle_margin_m, d2, inside, pd2, rp)
         if graded:
             gap = jnp.minimum(jnp.sqrt(d2) - r, jnp.sqrt(pd2) - r - rp)
