@@ -5,7 +5,8 @@
 For the clutter task's layout of ``--seed`` (Task C: padded to 8 discs and 8 polygons, the table as
 the workspace), ``dexpush.problem.cost.obstacle_cost`` is compiled and timed on ``--states`` random
 states (an MPPI iteration's 1024 samples × 25 steps) for the whole scene and for the scene with the
-polygons, the discs or the workspace left out. Prints the median of 10 calls per variant; the last
+polygons, the discs or the workspace left out, and for 2 and 3 of the discs beside the 8 polygons and for
+the polygons twice over without discs (the table left out). Prints the median of 10 calls per variant; the last
 line is JSON. Run it on an idle machine.
 """
 
@@ -39,6 +40,13 @@ def main() -> None:
                 "discs and workspace": dataclasses.replace(scene, **no_polygons),
                 "polygons and workspace": dataclasses.replace(scene, obstacles=scene.obstacles[:0]),
                 "discs and polygons": dataclasses.replace(scene, bounds=scene.bounds[:0])}
+    twice = {"polygons": jnp.concatenate([scene.polygons] * 2),
+             "polygon_planes": jnp.concatenate([scene.polygon_planes] * 2)}
+    for discs in (2, 3):                 # where the whole scene's slowdown begins: without the table
+        variants[f"{discs} discs, 8 polygons"] = dataclasses.replace(scene, obstacles=scene.obstacles[:discs],
+                                                                     bounds=scene.bounds[:0])
+    variants["16 polygons"] = dataclasses.replace(scene, obstacles=scene.obstacles[:0], bounds=scene.bounds[:0],
+                                                  **twice)
     rng = np.random.default_rng(0)
     n = args.states
     x = jnp.asarray(np.stack([rng.uniform(-0.5, 0.5, n), rng.uniform(-0.5, 0.5, n), rng.uniform(-np.pi, np.pi, n),
