@@ -99,7 +99,7 @@ def nearest_obstacle_distances(x: State, scene: Scene, exact: int = EXACT_NEARES
     """
     count = scene.obstacles.shape[0]
     # with polygons as well, XLA fuses the ranking into one loop with their gaps, which then ran ten times
-    # slower than the exact distances (Task C's scene: 800 ms against 62 ms for 25,600 states)
+    # slower than the exact distances (benchmarks/obstacle_cost_parts.py, docs/performance.md)
     if count <= exact or scene.edge_a.shape[0] > UNROLL_CORNERS or scene.polygons.shape[0]:
         for _, r, d2, inside, pd2 in obstacle_distances(x, scene):
             yield r, d2, inside, pd2
