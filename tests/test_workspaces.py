@@ -238,3 +238,32 @@ def test_goals_outside_the_workspace_and_custom_clutter_goals_are_refused() -> N
         build_task(RunSettings(task="C", goal=(0.3, 0.0, 0.0)))
     with pytest.raises(ValueError, match="a wall needs two distinct end points"):
         RunSettings(walls=((0.0, 0.0, 0.0, 0.0, 0.02),))
+
+
+@pytest.mark.parametrize("name", ["rect", "ellipse"])
+def test_discs_beside_polygons_cost_what_each_costs_alone(name: str) -> None:
+    """The clutter scene's cost (its discs' terms in a computation of their own, beside the polygons'
+    gaps and the table's) is the cost of its discs alone plus that of its polygons and table alone."""
+    import dataclasses
+
+    import jax
+    import jax.numpy as jnp
+
+    from dexpush.problem.cost import obstacle_cost
+
+    shape = Shape.ellipse() if name == "ellipse" else Shape.rectangle()
+    problem = TASKS["C"].layout(shape, 3)[0]
+    scene, w = problem.scene, problem.weights
+    discs = dataclasses.replace(scene, polygons=scene.polygons[:0], polygon_planes=scene.polygon_planes[:0],
+                                bounds=scene.bounds[:0])
+    regions = dataclasses.replace(scene, obstacles=scene.obstacles[:0])
+    rng = np.random.default_rng(7)
+    n = 4096
+    x = jnp.asarray(np.stack([rng.uniform(-0.5, 0.5, n), rng.uniform(-0.5, 0.5, n), rng.uniform(-np.pi, np.pi, n),
+                              rng.uniform(-0.5, 0.5, n), rng.uniform(-0.5, 0.5, n)], -1), jnp.float32)
+    cost = jax.jit(lambda x, sc: obstacle_cost(x, sc, w))
+    whole, of_discs, of_regions = (np.asarray(cost(x, sc), np.float64) for sc in (scene, discs, regions))
+    apart, touch = of_discs + of_regions, (of_discs >= w.C_pen) | (of_regions >= w.C_pen)
+    assert 0 < touch.sum() < n and np.any((apart > 0) & ~touch)   # touches, margins and free states all occur
+    np.testing.assert_array_equal(whole >= w.C_pen, touch)
+    np.testing.assert_allclose(whole[~touch], apart[~touch], rtol=1e-5, atol=1.0)

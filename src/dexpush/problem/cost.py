@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import jax
 import jax.numpy as jnp
 
 from dexpush.common import fastmath
@@ -161,11 +162,23 @@ def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
     depth = jnp.zeros(jnp.shape(xb), dtype=jnp.result_type(xb, jnp.float32))
     rp = scene.pusher_radius
     graded = w.C_margin is not None and w.obstacle_margin_m > 0
-    for r, d2, inside, pd2 in nearest_obstacle_distances(x, scene):
-        touch = touch | overlaps(r if graded else r + w.obstacle_margin_m, d2, inside, pd2, rp)
-        if graded:
-            gap = jnp.minimum(jnp.sqrt(d2) - r, jnp.sqrt(pd2) - r - rp)
-            depth = depth + jnp.clip(1.0 - gap / scene.margin, 0.0, 1.0)
+
+    def discs(touch: jnp.ndarray, depth: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray]:
+        for r, d2, inside, pd2 in nearest_obstacle_distances(x, scene):
+            touch = touch | overlaps(r if graded else r + w.obstacle_margin_m, d2, inside, pd2, rp)
+            if graded:
+                gap = jnp.minimum(jnp.sqrt(d2) - r, jnp.sqrt(pd2) - r - rp)
+                depth = depth + jnp.clip(1.0 - gap / scene.margin, 0.0, 1.0)
+        return touch, depth
+
+    if scene.obstacles.shape[0] and scene.polygons.shape[0]:
+        # the discs' terms in a computation of their own (a cond whose two branches are the same): fused
+        # into one loop with the polygons' gaps, three or more discs made the whole ten times slower than
+        # its parts (benchmarks/obstacle_cost_parts.py; docs/performance.md). The predicate is the goal's,
+        # which a batch of controllers shares (the margin is per state): a batched one makes it a select
+        touch, depth = jax.lax.cond(jnp.isfinite(scene.goal[0]), discs, discs, touch, depth)
+    else:
+        touch, depth = discs(touch, depth)
     for body, pusher in region_gaps(x, scene):       # polygons and the workspace: separating-axis gaps
         gap = jnp.minimum(body, pusher)
         touch = touch | (gap < (0.0 if graded else w.obstacle_margin_m))

@@ -98,8 +98,8 @@ def nearest_obstacle_distances(x: State, scene: Scene, exact: int = EXACT_NEARES
     discs, or with polygons too, this is :func:`obstacle_distances` itself.
     """
     count = scene.obstacles.shape[0]
-    # with polygons as well, XLA fuses the ranking into one loop with their gaps, which then ran ten times
-    # slower than the exact distances (benchmarks/obstacle_cost_parts.py, docs/performance.md)
+    # beside polygons the ranking is left out: where the discs' terms share one loop with the polygons' gaps
+    # (a batch of controllers turns the cost's cond into a select), it made that loop ten times slower
     if count <= exact or scene.edge_a.shape[0] > UNROLL_CORNERS or scene.polygons.shape[0]:
         for _, r, d2, inside, pd2 in obstacle_distances(x, scene):
             yield r, d2, inside, pd2
