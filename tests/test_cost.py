@@ -311,6 +311,37 @@ def test_from_inside_the_margin_the_plan_never_comes_nearer() -> None:
     assert closest(binary) < 0.0                      # measured: −21 mm, through the disc
 
 
+def test_an_ellipse_turned_beside_a_disc_inside_the_margin_is_planned_no_nearer() -> None:
+    """The library's ellipse turned 0.5 rad, 4 mm from a disc as the cost sees it (its 12-edge outline),
+    the pusher on its contour off the axis, where a push turns it toward the disc: no state the plan
+    predicts comes nearer than it started (issue 41's ellipse that came within 0.3 mm while turned past
+    a disc; on the physics plant, Task III, 30 seeds: no margin entry, docs/controller.md)."""
+    import functools
+
+    from dexpush.control.controller import ControllerSettings, plan_step, policy_init
+    from dexpush.model.cgvmm import LAMBDA_TRUE, Contour
+    from dexpush.problem.obstacles import clearance
+
+    shape = Shape.ellipse()
+    contour, settings = Contour.of(shape), ControllerSettings(stall=StallSettings(after_s=None))
+    th = 0.5
+    rot = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
+    pusher = np.array([0.20, 0.0]) + rot @ np.asarray(shape.contour(np.array([np.pi + 0.35]))[0])[0] * 1.05
+    x = jnp.asarray([0.20, 0.0, th, *pusher], jnp.float32)
+    centre = (0.30, 0.13)
+    probe = Scene.make(shape, (0.6, 0, 0), ((*centre, 1e-3),), settings.weights, max_edges=12)
+    radius = float(clearance(x, probe)) + 1e-3 - 0.004
+    scene = Scene.make(shape, (0.6, 0, 0), ((*centre, radius),), settings.weights, max_edges=12)
+    assert float(clearance(x, scene)) == pytest.approx(0.004, abs=1e-6)
+    step = jax.jit(functools.partial(plan_step, contour=contour, scene=scene, settings=settings))
+    state = policy_init(LAMBDA_TRUE, settings, 3)
+    for _ in range(10):
+        state, _, result = step(state, x)
+    closest = float(least_clearance(contour, scene, x, result.sequence,
+                                    jnp.asarray(settings.mppi.step_durations(), jnp.float32)))
+    assert closest >= 0.004 - 1e-4                  # measured: 4.0 mm
+
+
 def test_a_plan_from_inside_the_margin_keeps_its_start_clearance_as_margin() -> None:
     from dexpush.problem.cost import plan_margin
     from dexpush.problem.obstacles import clearance
