@@ -3,16 +3,16 @@
     python benchmarks/act_edges.py [--edges 4,64,256,1024] [--obstacles 0,1,8] [--calls 200] [--clutter SEED]
 
 For regular polygons of each edge count (radius 8 cm), the library's 10 × 6 cm ellipse (256
-footprint edges) and each obstacle count (discs of 3 cm along the way to the goal, off the
-straight line), a controller is reset on the first observation (that compiles: the time is
-printed) and then acts ``--calls`` times on exact frames from the model plant. Prints the edges
-the cost's obstacle terms see (at most ``dexpush.problem.problem.COST_OUTLINE_EDGES`` for a
-convex footprint), the compile time and the median and 99th percentile of ``act``. The last
-line printed is JSON. ``--clutter SEED`` adds the clutter task's layout of that seed (Task C: discs,
-boxes, walls and the table, padded to 8 discs and 8 polygons) for the rectangle and the ellipse.
-Configurations whose cost sees the same arrays (the same outline edge count
-and obstacle count) share one compiled program: their reset then costs nothing. Run it on an idle
-machine.
+footprint edges), the T (8 edges, not convex: the cost sees them all) and each obstacle count (discs
+of 3 cm along the way to the goal, off the straight line), a controller is reset on the first
+observation (that compiles: the time is printed) and then acts ``--calls`` times on exact frames
+from the model plant. Prints the edges the cost's obstacle terms see (at most
+``dexpush.problem.problem.COST_OUTLINE_EDGES`` for a convex footprint), the compile time and the
+median and 99th percentile of ``act``. The last line printed is JSON. ``--clutter SEED`` adds the
+clutter task's layout of that seed (Task C: discs, boxes, walls and the table, padded to 8 discs and
+8 polygons) for the rectangle and the ellipse. Configurations whose cost sees the same arrays (the
+same outline edge count and obstacle count) share one compiled program: their reset then costs
+nothing. Run it on an idle machine.
 """
 
 from __future__ import annotations
@@ -32,6 +32,8 @@ from dexpush.world.model_plant import ModelPlant
 def _shape(kind: str) -> dexpush.Shape:
     if kind == "ellipse":
         return dexpush.Shape.ellipse()
+    if kind == "tee":
+        return dexpush.Shape.tee()
     n = int(kind)
     ang = 2 * np.pi * (np.arange(n) + 0.5) / n
     return dexpush.Shape.polygon(0.08 * np.stack([np.cos(ang), np.sin(ang)], -1), name=f"{n}-gon")
@@ -50,7 +52,7 @@ def main() -> None:
     ap.add_argument("--clutter", type=int, default=None, metavar="SEED")
     args = ap.parse_args()
     cases = []
-    for kind in [*args.edges.split(","), "ellipse"]:
+    for kind in [*args.edges.split(","), "ellipse", "tee"]:
         shape = _shape(kind)
         for m in (int(v) for v in args.obstacles.split(",")):
             r = float(shape.contour(np.array(np.pi))[0][0]) - 0.03
