@@ -101,7 +101,6 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
     else:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
-        from concurrent.futures.process import BrokenProcessPool
 
         # one XLA thread per worker process (dexpush.common.xla_options): the workers are the parallelism
         saved = os.environ.get("NPROC")
@@ -109,32 +108,24 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
         try:
             with ProcessPoolExecutor(min(workers, len(groups)), mp_context=multiprocessing.get_context("spawn"),
                                      initializer=exit_with_parent, initargs=(os.getpid(),)) as ex:
-                # the workers start (on submit) with Ctrl-C blocked, held until their initializer makes it end
-                # them quietly (a Ctrl-C while one still imports would otherwise print its traceback); this
-                # process holds it too meanwhile, and takes it once they are started
+                # the workers start (on submit) with Ctrl-C ignored, until their initializer makes it end them
+                # quietly: a Ctrl-C while one still imports would otherwise print its traceback
                 main = threading.current_thread() is threading.main_thread()
-                if main:
-                    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+                previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
                 try:
-                    try:
-                        futures = [ex.submit(_run_group, out, t, sh, **common, position=i % workers)
-                                   for i, (t, sh) in enumerate(groups)]
-                    finally:
-                        if main:
-                            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+                    futures = [ex.submit(_run_group, out, t, sh, **common, position=i % workers)
+                               for i, (t, sh) in enumerate(groups)]
+                finally:
+                    if main:
+                        signal.signal(signal.SIGINT, previous)
+                try:
                     for f in futures:
                         f.result()
-                except (KeyboardInterrupt, BrokenProcessPool) as exc:
-                    # a worker the Ctrl-C ended first (quietly) breaks the pool before this process sees it: the
-                    # same Ctrl-C; a worker that died otherwise is the error it is
-                    processes = list((getattr(ex, "_processes", None) or {}).values())
-                    interrupted = isinstance(exc, KeyboardInterrupt) or any(
-                        p.exitcode == _INTERRUPTED_EXIT for p in processes)
-                    for process in processes:
+                except KeyboardInterrupt:
+                    # a worker that was still importing ignored the Ctrl-C: end it rather than wait for its group
+                    for process in list((getattr(ex, "_processes", None) or {}).values()):
                         process.terminate()
-                    if not interrupted:
-                        raise
-                    raise KeyboardInterrupt from None
+                    raise
         finally:
             if saved is None:
                 os.environ.pop("NPROC", None)
@@ -157,10 +148,6 @@ def _expected_cost(group: tuple[str, str]) -> tuple[int, int]:
     return len(make_shape(shape_name).corners), len(task.obstacles) + len(task.polygons) + 3 * task.varies_by_seed
 
 
-#: a worker's exit status when a Ctrl-C ends it (as a shell's 128 + SIGINT)
-_INTERRUPTED_EXIT = 130
-
-
 def exit_with_parent(parent: int, poll_s: float = 1.0) -> None:
     """Worker-pool initializer: end this worker once the process that started it is gone.
 
@@ -175,9 +162,8 @@ def exit_with_parent(parent: int, poll_s: float = 1.0) -> None:
         os._exit(1)
 
     # Ctrl-C reaches the workers too: they end at once and quietly (every file is written atomically),
-    # and the parent says how to resume; one that came while this worker started was held until now
-    signal.signal(signal.SIGINT, lambda *_: os._exit(_INTERRUPTED_EXIT))
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    # and the parent says how to resume
+    signal.signal(signal.SIGINT, lambda *_: os._exit(130))
 
     threading.Thread(target=watch, daemon=True, name="exit-with-parent").start()
 
