@@ -474,11 +474,16 @@ def test_ctrl_c_into_bench_says_how_to_resume_without_a_traceback(tmp_path) -> N
                              "--params", "known", "--methods", "mppi", "--trials", "2", "--workers", "2",
                              "--no-figures", "--out", str(tmp_path)], stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
-    time.sleep(6)
+    # once both workers run their groups: while the parent spawns them it holds Ctrl-C off (benchmark.py), and
+    # a spawn waits for the new worker to import the CLI, seconds on a loaded machine
+    seen, deadline = [], time.monotonic() + 120
+    while time.monotonic() < deadline and sum("trials in" in line for line in seen) < 2 and proc.poll() is None:
+        seen.append(proc.stderr.readline())
     import os
 
     os.killpg(proc.pid, signal.SIGINT)                 # as a terminal's Ctrl-C: the whole process group
-    _, err = proc.communicate(timeout=60)
+    _, rest = proc.communicate(timeout=60)
+    err = "".join(seen) + rest
     assert proc.returncode == 130, err
     assert "Traceback" not in err and "the same command resumes there" in err
 
