@@ -473,7 +473,8 @@ def test_ctrl_c_into_bench_says_how_to_resume_without_a_traceback(tmp_path) -> N
     proc = subprocess.Popen([sys.executable, "-m", "dexpush.cli", "bench", "--tasks", "I,II", "--shapes", "rect",
                              "--params", "known", "--methods", "mppi", "--trials", "2", "--workers", "2",
                              "--no-figures", "--out", str(tmp_path)], stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True,   # as from a terminal: Ctrl-C not ignored even where this is
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))   # (a background job)
     # once both workers run their groups: while the parent spawns them it holds Ctrl-C off (benchmark.py), and
     # a spawn waits for the new worker to import the CLI, seconds on a loaded machine
     seen, deadline = [], time.monotonic() + 120
