@@ -7,8 +7,11 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
 FRANKA := $(VENV)/.franka
+ROS    := $(VENV)/.ros
+# a new user and network namespace with only the loopback up (and multicast on it, for DDS discovery)
+LOOPBACK := unshare -rn sh -c 'ip link set lo up && ip route add 224.0.0.0/4 dev lo && exec "$$@"' sh
 
-.PHONY: demo test test-slow test-franka examples lint bench clean
+.PHONY: demo test test-slow test-franka test-ros ros-demo examples lint bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -21,7 +24,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples
-	$(BIN)/python -m pytest -q -m "not slow and not franka" -n 2
+	$(BIN)/python -m pytest -q -m "not slow and not franka and not ros" -n 2
 
 $(FRANKA): $(STAMP)
 	$(BIN)/pip install --quiet -e ".[dev,camera,franka]"
@@ -30,6 +33,18 @@ $(FRANKA): $(STAMP)
 # the simulated Franka (the franka extra), in a network namespace with only the loopback up
 test-franka: $(FRANKA)
 	unshare -rn sh -c 'ip link set lo up 2>/dev/null; $(BIN)/python -m pytest -q -m franka tests/test_franka_sim.py'
+
+$(ROS): $(STAMP)
+	$(BIN)/pip install --quiet -e ".[dev,camera,ros]"
+	touch $(ROS)
+
+# the ROS 2 node (the ros extra) over DDS, in a network namespace with only the loopback up
+test-ros: $(ROS)
+	$(LOOPBACK) env ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST $(BIN)/python -m pytest -q -m ros tests/test_ros_node.py
+
+# the ROS 2 example system: one episode of Task I through the node (examples/ros_system.py makes the namespace)
+ros-demo: $(ROS)
+	$(BIN)/python examples/ros_system.py --out out/examples/ros
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m "slow and not franka"

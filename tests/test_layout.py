@@ -22,6 +22,7 @@ LAYERS = [
     {"problem", "viz", "perception"},
     {"control", "world", "gcs"},
     {"data", "robot"},
+    {"ros"},
     {"experiments"},
     {"env", "cli", "__init__"},
 ]
@@ -36,12 +37,13 @@ INNER = {
     "problem": [{"weights", "regions"}, {"guidance", "scene_file"}, {"scene"}, {"obstacles"}, {"cost"}, {"problem"}],
     "control": [{"noise", "ukf"}, {"mppi", "proposals", "estimator"}, {"settings"}, {"policy"}, {"controller"}],
     "world": [{"model_plant", "sensing"}, {"physics_plant"}, {"rendered_camera"}],
-    "robot": [{"safety", "watchdog"}, {"guarded", "driver"}, {"franky_driver", "franka_sim"}],
+    "robot": [{"safety", "watchdog", "smoothing"}, {"guarded", "driver"}, {"franky_driver", "franka_sim"}],
+    "ros": [{"core", "netns"}, {"node"}, {"bridge"}],
     "perception": [{"camera_model", "markers"}, {"camera_file", "planar_pose", "detect"}, {"tracker", "calibration"},
                    {"live"}],
     "data": [{"push"}, {"labelling"}, {"fitting"}, {"mit"}, {"validation", "push_logs", "online_ukf"}],
     "experiments": [{"scenarios"}, {"simulate"}, {"methods"}, {"registry"}, {"records"}, {"runner"},
-                    {"tables", "robot_trial"}, {"results_folder"}, {"benchmark"}],
+                    {"tables", "robot_trial", "ros_trial"}, {"results_folder"}, {"benchmark"}],
     "cli": [{"arguments", "settings_file"}, {"config", "flags"}, {"commands"}, {"main"}],
 }
 

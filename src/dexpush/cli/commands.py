@@ -171,6 +171,45 @@ def cmd_robot(args: argparse.Namespace) -> dict:
     return summary
 
 
+def cmd_ros(args: argparse.Namespace) -> dict:
+    """``dexpush ros``: the ROS 2 node until Ctrl-C (docs/ros.md); the summary holds its last status."""
+    from dexpush.cli.config import build_task, check_run_config, lambda_pred, load_shape
+    from dexpush.problem.problem import Problem
+    from dexpush.problem.scene_file import Layout
+    from dexpush.robot.safety import SafetySettings
+    from dexpush.robot.smoothing import SmoothingSettings
+    from dexpush.ros.core import NodeCore, NodeSettings
+    from dexpush.ros.netns import LOCALHOST_ENV
+    from dexpush.ros.node import Topics, require_rclpy, run_node
+
+    require_rclpy()
+    for key, value in LOCALHOST_ENV.items():       # discovery stays on this machine unless the user widens it
+        os.environ.setdefault(key, value)
+    config = effective_config(args)
+    check_run_config(config)
+    run = config.run
+    shape = load_shape(run.shape)
+    task = build_task(run)
+    node = NodeSettings(world_frame=args.world_frame, twist_frame=args.twist_frame, trigger=args.trigger,
+                        stale_s=args.stale, watchdog_s=args.watchdog,
+                        smoothing=SmoothingSettings(args.a_limit, args.j_limit) if args.smooth else None,
+                        stream_hz=args.stream_rate, safety=SafetySettings(v_max=args.v_limit, a_max=args.a_limit))
+    topics = Topics(**{name: getattr(args, f"topic_{name}") for name in Topics().__dict__})
+    params = run.params if run.lambda_pred is None else lambda_pred(run)
+    lam = PARAMS[params] if isinstance(params, str) else tuple(params)
+    method = get_method(run.method)
+    method.check_sensing(exact_observations=False)
+
+    def controller_for(problem: Problem) -> object:
+        return method.controller(problem, lam, run.seed, config.controller)
+
+    core = NodeCore(shape, Layout(task.obstacles, task.polygons, task.workspace), controller_for,
+                    settings=config.controller, node=node,
+                    log=(lambda text: None) if args.quiet else (lambda text: print(text, file=sys.stderr)),
+                    goal=None if args.wait_for_goal else task.goal)
+    return {"node": run_node(core, topics, args.node_name, duration_s=args.duration, until_reached=args.until_reached)}
+
+
 def cmd_validate(args: argparse.Namespace) -> dict:
     import matplotlib.pyplot as plt
 

@@ -8,6 +8,7 @@
     dexpush fit LOG --shape FILE.toml        fit λ (and μ_c) to your own recorded pushes
     dexpush calibrate --board B.toml IMG...  a camera's pose (and intrinsics) from images of a board
     dexpush robot --sim --task I --shape rect  one episode on a simulated Franka FR3 (needs dexpush[franka])
+    dexpush ros --shape tee --scene scene.toml  the ROS 2 node: poses and goals in, twists out (needs dexpush[ros])
 
 Every command writes its files under ``--out`` and prints a one-line JSON summary last.
 """
@@ -23,7 +24,7 @@ import warnings
 from collections.abc import Sequence
 
 from dexpush.cli.arguments import floats, out_folder, positive_float, positive_int, seed, seed_list
-from dexpush.cli.commands import cmd_bench, cmd_calibrate, cmd_fit, cmd_robot, cmd_run, cmd_validate
+from dexpush.cli.commands import cmd_bench, cmd_calibrate, cmd_fit, cmd_robot, cmd_ros, cmd_run, cmd_validate
 from dexpush.cli.flags import add_camera_flags, add_planner_flags
 from dexpush.experiments.benchmark import BENCH_LANES
 from dexpush.experiments.methods import method_names
@@ -41,6 +42,16 @@ def _version() -> str:
         return importlib.metadata.version("dexpush")
     except importlib.metadata.PackageNotFoundError:  # pragma: no cover (a source tree without install)
         return "unknown"
+
+
+def share_run_flags(parser: argparse.ArgumentParser, what: argparse._ArgumentGroup, how: argparse._ArgumentGroup,
+                    skip: tuple[str, ...]) -> None:
+    """``run``'s what-and-where flags (all but ``skip``) and its method flags, on another command."""
+    for action in what._group_actions:
+        if action.dest not in skip:
+            parser._add_action(action)
+    for name in ("method", "params", "lambda_pred"):
+        parser._add_action(next(a for a in how._group_actions if a.dest == name))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -127,11 +138,8 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument("--sim", action="store_true", help="the simulated FR3 on 127.0.0.1, started and shut down "
                                                          "here (the default)")
     where.add_argument("--robot", metavar="ADDRESS", default=None, help="a real Franka's FCI address")
-    for action in what._group_actions:     # the robot's safety filter has no boxes or walls yet (docs/workspaces.md)
-        if action.dest not in ("print_config", "obstacle_box", "wall", "table_workspace"):
-            rob._add_action(action)
-    for name in ("method", "params", "lambda_pred"):
-        rob._add_action(next(a for a in how._group_actions if a.dest == name))
+    # the robot's safety filter has no boxes or walls yet (docs/workspaces.md)
+    share_run_flags(rob, what, how, skip=("print_config", "obstacle_box", "wall", "table_workspace"))
     safe = rob.add_argument_group("robot and safety filter")
     safe.add_argument("--v-limit", type=positive_float, default=0.15,
                       help="the filter's speed limit (m/s, default 0.15)")
@@ -145,6 +153,47 @@ def build_parser() -> argparse.ArgumentParser:
     add_camera_flags(rob)
     episode_args(rob, "out/robot")
     rob.set_defaults(func=cmd_robot, plant=None, lanes=1, true_params=None, mu=None)
+
+    ros = sub.add_parser("ros", help="the ROS 2 node: object and pusher poses and goals in, twists out (docs/ros.md); "
+                                     "needs pip install 'dexpush[ros]' or a sourced ROS 2",
+                         formatter_class=argparse.RawDescriptionHelpFormatter,
+                         epilog="examples:\n"
+                                "  dexpush ros --shape tee --scene scene.toml --world-frame table\n"
+                                "  dexpush ros --task III --shape tee --goal 0.6,0.3,0 --smooth --twist-topic /cmd")
+    share_run_flags(ros, what, how, skip=("print_config",))
+    rg = ros.add_argument_group("topics, frames and timing")
+    rg.add_argument("--world-frame", default="world", help="the frame of poses and goals (default world)")
+    rg.add_argument("--twist-frame", default="", help="the twist's header frame (default: the world frame)")
+    from dexpush.ros.core import TRIGGERS
+    from dexpush.ros.node import Topics
+
+    for field_name, default in Topics().__dict__.items():
+        rg.add_argument(f"--{field_name.replace('_', '-')}-topic", dest=f"topic_{field_name}", default=default,
+                        help=f"(default {default})")
+    rg.add_argument("--trigger", choices=TRIGGERS, default="timer",
+                    help="plan every control period (timer), or on each object pose (pose: for a pose stream at "
+                         "the control rate) (default timer)")
+    rg.add_argument("--wait-for-goal", action="store_true",
+                    help="start without a goal (else: --goal, or the task's goal)")
+    rg.add_argument("--stale", type=positive_float, default=0.5,
+                    help="zero twist when the newest pose is older than this (s, default 0.5)")
+    rg.add_argument("--watchdog", type=positive_float, default=0.1,
+                    help="zero twist when the planner made no command for this long (s, default 0.1)")
+    rg.add_argument("--smooth", action="store_true",
+                    help="stream twists at --stream-rate within --a-limit and --j-limit (for robots that need "
+                         "continuous commands)")
+    rg.add_argument("--stream-rate", type=positive_float, default=250.0, help="with --smooth (Hz, default 250)")
+    rg.add_argument("--a-limit", type=positive_float, default=2.5,
+                    help="acceleration limit of the filter and the stream (m/s², default 2.5)")
+    rg.add_argument("--j-limit", type=positive_float, default=250.0,
+                    help="with --smooth: jerk limit (m/s³, default 250)")
+    rg.add_argument("--v-limit", type=positive_float, default=0.15, help="the filter's speed limit (m/s, default 0.15)")
+    rg.add_argument("--duration", type=positive_float, default=None, help="stop after this many seconds")
+    rg.add_argument("--until-reached", action="store_true", help="stop once the goal is reached")
+    rg.add_argument("--node-name", default="dexpush", help="the node's name (default dexpush)")
+    add_planner_flags(ros)
+    ros.add_argument("--quiet", action="store_true", help="no notes on stderr")
+    ros.set_defaults(func=cmd_ros, plant=None, lanes=1, true_params=None, mu=None)
 
     bench = sub.add_parser("bench", help="the paper's Sec. IV-B table (batched, resumable)")
     bench.add_argument("--tasks", default="I,II,III",

@@ -102,6 +102,7 @@ class Problem:
         if self.workspace is not None:
             bounds = workspace_halfplanes(self.workspace)
             corners = _corners(bounds)
+            self._check_goal_inside(goal, bounds)    # before the guidance, whose grid the goal must lie on
         origin = np.array([goal[0], goal[1], 0.0])
         put = object.__setattr__
         put(self, "goal", tuple(float(v) for v in goal))
@@ -131,7 +132,7 @@ class Problem:
         self._check_goal_fits()
 
     def _check_goal_fits(self) -> None:
-        """A ``ValueError`` when the goal's footprint touches an obstacle or leaves the workspace."""
+        """A ``ValueError`` when the goal's footprint touches an obstacle (the workspace is checked first)."""
         if self.obstacles or self.polygons:
             # the pusher far away (and the workspace, which would see it outside, left out): the footprint alone
             at_goal = jnp.asarray([[*self.goal, self.goal[0] + 1e3, self.goal[1] + 1e3]], jnp.float32)
@@ -140,13 +141,14 @@ class Problem:
             if gap <= 0:
                 raise ValueError(f"the goal pose {self.goal} puts the object's footprint on an obstacle "
                                  f"(overlap {-gap * 1e3:.1f} mm): move the goal or the obstacles")
-        if self.workspace is not None:
-            bounds = workspace_halfplanes(self.workspace)
-            corners = np.concatenate(self.shape.footprint_world(self.goal))
-            out = float(np.max(corners @ bounds[:, :2].T - bounds[:, 2]))
-            if out >= 0:
-                raise ValueError(f"the goal pose {self.goal} puts the object's footprint outside the workspace "
-                                 f"(by {out * 1e3:.1f} mm): move the goal or widen the workspace")
+
+    def _check_goal_inside(self, goal: np.ndarray, bounds: np.ndarray) -> None:
+        """A ``ValueError`` when the goal's footprint leaves the workspace (half-planes ``bounds``)."""
+        corners = np.concatenate(self.shape.footprint_world(goal))
+        out = float(np.max(corners @ bounds[:, :2].T - bounds[:, 2]))
+        if out >= 0:
+            raise ValueError(f"the goal pose {tuple(float(v) for v in goal)} puts the object's footprint outside the "
+                             f"workspace (by {out * 1e3:.1f} mm): move the goal or widen the workspace")
 
     @property
     def has_obstacles(self) -> bool:

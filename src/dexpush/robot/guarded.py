@@ -116,6 +116,10 @@ class GuardedController:
         if self.guard is not None and object_pose is not None and pusher_xy is not None:
             self.guard(Observation(np.asarray(object_pose, float), np.asarray(pusher_xy, float), 0.0))
 
+    def hold(self) -> None:
+        """The robot was sent zero outside :meth:`act` (a caller's stop): the filter's previous command is zero."""
+        self._v = np.zeros(2)
+
     def act(self, frame: Observation | None, frame_period: float | None = None) -> np.ndarray:
         self.periods += 1
         if self.on_act is not None:
