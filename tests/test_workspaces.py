@@ -234,6 +234,8 @@ def test_goals_outside_the_workspace_and_custom_clutter_goals_are_refused() -> N
 
     with pytest.raises(ValueError, match="outside the workspace"):
         Problem(RECT, (0.6, 0.3, 0.0), workspace=(0.2, -0.3, 0.6, 0.3))
+    with pytest.raises(ValueError, match="outside the workspace"):     # the centre off the guidance's grid too
+        Problem(RECT, (2.0, 0.0, 0.0), workspace=(-0.2, -0.2, 0.5, 0.5))
     with pytest.raises(ValueError, match="task C draws its own goal"):
         build_task(RunSettings(task="C", goal=(0.3, 0.0, 0.0)))
     with pytest.raises(ValueError, match="a wall needs two distinct end points"):
