@@ -8,10 +8,11 @@ STAMP  := $(VENV)/.installed
 
 FRANKA := $(VENV)/.franka
 ROS    := $(VENV)/.ros
+CLUSTER := $(VENV)/.cluster
 # a new user and network namespace with only the loopback up (and multicast on it, for DDS discovery)
 LOOPBACK := unshare -rn sh -c 'ip link set lo up && ip route add 224.0.0.0/4 dev lo && exec "$$@"' sh
 
-.PHONY: demo test test-slow test-franka test-ros ros-demo examples lint bench clean
+.PHONY: demo test test-slow test-franka test-ros test-cluster ros-demo examples lint bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -24,7 +25,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples
-	$(BIN)/python -m pytest -q -m "not slow and not franka and not ros" -n 2
+	$(BIN)/python -m pytest -q -m "not slow and not franka and not ros and not cluster" -n 2
 
 $(FRANKA): $(STAMP)
 	$(BIN)/pip install --quiet -e ".[dev,camera,franka]"
@@ -42,12 +43,20 @@ $(ROS): $(STAMP)
 test-ros: $(ROS)
 	$(LOOPBACK) env ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST $(BIN)/python -m pytest -q -m ros tests/test_ros_node.py
 
+$(CLUSTER): $(STAMP)
+	$(BIN)/pip install --quiet -e ".[dev,camera,cluster]"
+	touch $(CLUSTER)
+
+# dexpush bench on a local Ray instance (the cluster extra), in a network namespace with only the loopback up
+test-cluster: $(CLUSTER)
+	$(LOOPBACK) env RAY_USAGE_STATS_ENABLED=0 $(BIN)/python -m pytest -q -m cluster tests/test_cluster.py
+
 # the ROS 2 example system: one episode of Task I through the node (examples/ros_system.py makes the namespace)
 ros-demo: $(ROS)
 	$(BIN)/python examples/ros_system.py --out out/examples/ros
 
 test-slow: $(STAMP)
-	$(BIN)/python -m pytest -q -m "slow and not franka"
+	$(BIN)/python -m pytest -q -m "slow and not franka and not ros and not cluster"
 
 examples: $(STAMP)
 	$(BIN)/python examples/own_object.py --out out/examples

@@ -32,7 +32,7 @@ def main() -> int:
     p.add_argument("--out", default="out/examples/ros", help="output folder (default out/examples/ros)")
     args = p.parse_args()
 
-    from dexpush.ros.netns import in_loopback_namespace, loopback_command
+    from dexpush.common.netns import in_loopback_namespace, loopback_command
 
     if not in_loopback_namespace():
         if os.environ.get("DEXPUSH_IN_NAMESPACE"):

@@ -301,3 +301,34 @@ def test_longest_groups_run_first() -> None:
     ordered = sorted(groups, key=_expected_cost, reverse=True)
     assert ordered[0] == ("III", "tee") and ordered[-1][1] == "rect"
     assert ordered.index(("III", "rect")) < ordered.index(("I", "rect"))
+
+
+def test_the_engine_is_checked_and_ray_is_asked_for_by_name(tmp_path, monkeypatch):
+    kwargs = dict(tasks=["I"], shapes=["rect"], params=["known"], methods=["mppi"], seeds=[0], progress=False,
+                  figures=False)
+    with pytest.raises(ValueError, match="unknown engine 'spark'"):
+        run_benchmark(tmp_path / "a", engine="spark", **kwargs)
+    with pytest.raises(ValueError, match="engine='ray'"):
+        run_benchmark(tmp_path / "b", address="10.0.0.1:6379", **kwargs)
+    monkeypatch.setitem(sys.modules, "ray", None)            # import ray raises ImportError
+    with pytest.raises(ImportError, match=r"pip install 'dexpush\[cluster\]'"):
+        run_benchmark(tmp_path / "c", engine="ray", **kwargs)
+
+
+def test_a_local_ray_instance_starts_only_in_a_loopback_only_namespace(tmp_path, monkeypatch):
+    import types
+
+    from dexpush.cli.main import main
+    from dexpush.experiments import cluster
+
+    monkeypatch.setitem(sys.modules, "ray", types.SimpleNamespace(is_initialized=lambda: False))
+    monkeypatch.setattr(cluster, "why_not_loopback", lambda: "this process sees eth0")
+    with pytest.raises(OSError, match="only in a loopback-only network namespace, and this process sees eth0"):
+        cluster.run_on_ray(print, [((), {})], workers=1)
+    # the command runs itself again in a new namespace; one that is still not loopback-only is refused
+    import dexpush.common.netns as netns
+
+    monkeypatch.setattr(netns, "why_not_loopback", lambda: "this process sees eth0")
+    monkeypatch.setenv("DEXPUSH_IN_NAMESPACE", "1")
+    assert main(["bench", "--tasks", "I", "--shapes", "rect", "--trials", "1", "--engine", "ray", "--quiet",
+                 "--out", str(tmp_path / "b")]) == 2

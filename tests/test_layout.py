@@ -31,19 +31,20 @@ RANK = {name: i for i, layer in enumerate(LAYERS) for name in layer}
 #: lowest first, per sub-package: its modules (gcs/ is one unit: its own chain, one door)
 INNER = {
     "common": [{"fastmath", "se2", "checks", "files", "compile_cache", "xla_options", "interfaces", "progress",
-                "settings"}],
+                "settings", "netns"}],
     "model": [{"polygons"}, {"radial_table", "convex_pieces"}, {"kernel"}, {"shape_file"}, {"shape", "corner"},
               {"cgvmm"}],
     "problem": [{"weights", "regions"}, {"guidance", "scene_file"}, {"scene"}, {"obstacles"}, {"cost"}, {"problem"}],
     "control": [{"noise", "ukf"}, {"mppi", "proposals", "estimator"}, {"settings"}, {"policy"}, {"controller"}],
     "world": [{"model_plant", "sensing"}, {"physics_plant"}, {"rendered_camera"}],
     "robot": [{"safety", "watchdog", "smoothing"}, {"guarded", "driver"}, {"franky_driver", "franka_sim"}],
-    "ros": [{"core", "netns"}, {"node"}, {"bridge"}],
+    "ros": [{"core"}, {"node"}, {"bridge"}],
     "perception": [{"camera_model", "markers"}, {"camera_file", "planar_pose", "detect"}, {"tracker", "calibration"},
                    {"live"}],
     "data": [{"push"}, {"labelling"}, {"fitting"}, {"mit"}, {"validation", "push_logs", "online_ukf"}],
     "experiments": [{"scenarios"}, {"simulate"}, {"methods"}, {"registry"}, {"records"}, {"runner"},
-                    {"tables", "robot_trial", "ros_trial"}, {"results_folder"}, {"benchmark"}],
+                    {"tables", "robot_trial", "ros_trial", "cluster"}, {"results_folder"},
+                    {"benchmark"}],
     "cli": [{"arguments", "settings_file"}, {"config", "flags"}, {"commands"}, {"main"}],
 }
 

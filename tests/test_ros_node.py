@@ -20,7 +20,7 @@ def _skip_reason() -> str | None:
         import rclpy  # noqa: F401
     except ImportError:
         return "needs rclpy: pip install -e '.[ros]' (make test-ros)"
-    from dexpush.ros.netns import why_not_loopback
+    from dexpush.common.netns import why_not_loopback
 
     why = why_not_loopback()
     if why is not None:
@@ -36,11 +36,11 @@ from geometry_msgs.msg import PoseStamped, TwistStamped  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from std_msgs.msg import Empty, String  # noqa: E402
 
+from dexpush.common.netns import ros_environment  # noqa: E402
 from dexpush.experiments.registry import make_shape  # noqa: E402
 from dexpush.experiments.ros_trial import stop_node  # noqa: E402
 from dexpush.experiments.scenarios import TASKS  # noqa: E402
 from dexpush.ros.bridge import PlantBridge  # noqa: E402
-from dexpush.ros.netns import ros_environment  # noqa: E402
 from dexpush.ros.node import planar_pose  # noqa: E402
 from dexpush.world.model_plant import ModelPlant  # noqa: E402
 from dexpush.world.sensing import SensorSettings  # noqa: E402

@@ -174,12 +174,12 @@ def cmd_robot(args: argparse.Namespace) -> dict:
 def cmd_ros(args: argparse.Namespace) -> dict:
     """``dexpush ros``: the ROS 2 node until Ctrl-C (docs/ros.md); the summary holds its last status."""
     from dexpush.cli.config import build_task, check_run_config, lambda_pred, load_shape
+    from dexpush.common.netns import LOCALHOST_ENV
     from dexpush.problem.problem import Problem
     from dexpush.problem.scene_file import Layout
     from dexpush.robot.safety import SafetySettings
     from dexpush.robot.smoothing import SmoothingSettings
     from dexpush.ros.core import NodeCore, NodeSettings
-    from dexpush.ros.netns import LOCALHOST_ENV
     from dexpush.ros.node import Topics, require_rclpy, run_node
 
     require_rclpy()
@@ -330,6 +330,25 @@ def cmd_fit(args: argparse.Namespace) -> dict:
     return summary
 
 
+def _rerun_in_loopback_namespace(args: argparse.Namespace) -> None:
+    """Outside a loopback-only network namespace, run this command again in a new one (a local Ray instance
+    listens on every interface: dexpush.experiments.cluster) and exit with its code; inside, return."""
+    from dexpush.common.netns import loopback_command, why_not_loopback
+
+    why = why_not_loopback()
+    if why is None:
+        return
+    if os.environ.get("DEXPUSH_IN_NAMESPACE"):
+        raise OSError(f"the new network namespace is not loopback-only ({why}); not starting Ray")
+    command = loopback_command([sys.executable, "-m", "dexpush.cli", *args.argv])
+    import subprocess
+
+    if not args.quiet:
+        print("dexpush: starting Ray in a loopback-only network namespace", file=sys.stderr)
+    raise SystemExit(subprocess.call(command, env={**os.environ, "DEXPUSH_IN_NAMESPACE": "1",
+                                                   "RAY_USAGE_STATS_ENABLED": "0"}))
+
+
 def cmd_bench(args: argparse.Namespace) -> dict:
     import datetime
     import platform
@@ -359,17 +378,20 @@ def cmd_bench(args: argparse.Namespace) -> dict:
     check_bench_config(config, args)
     if config.run.camera == "rendered" and args.plant == "model":
         raise ValueError("--camera rendered sees the MuJoCo plant: add --plant physics (or --randomize)")
+    if args.engine == "ray" and args.ray_address is None:
+        _rerun_in_loopback_namespace(args)
     t0 = time.perf_counter()
     records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
                             lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures,
                             workers=args.workers, plant=args.plant, sensor=build_sensor(config),
-                            settings=config.controller)
+                            settings=config.controller, engine=args.engine, address=args.ray_address)
     wall = time.perf_counter() - t0
     seed_text = f"--seeds {args.seeds_text}" if args.seeds is not None else f"--trials {args.trials}"
     meta = {"command": f"dexpush bench --tasks {args.tasks} --shapes {args.shapes} --params {args.params} "
                        f"--methods {args.methods} {seed_text} --lanes {args.lanes} --plant {args.plant}"
                        f"{args.camera_text}{args.planner_text}"
-                       f"{f' --config {args.config}' if args.config else ''} --workers {args.workers} --out {args.out}",
+                       f"{f' --config {args.config}' if args.config else ''} --workers {args.workers}"
+                       f"{' --engine ray' if args.engine == 'ray' else ''} --out {args.out}",
             "date": datetime.date.today().isoformat(),
             "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.python_implementation()} "
                        f"{platform.python_version()}",

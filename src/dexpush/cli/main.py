@@ -27,6 +27,7 @@ from dexpush.cli.arguments import floats, out_folder, positive_float, positive_i
 from dexpush.cli.commands import cmd_bench, cmd_calibrate, cmd_fit, cmd_robot, cmd_ros, cmd_run, cmd_validate
 from dexpush.cli.flags import add_camera_flags, add_planner_flags
 from dexpush.experiments.benchmark import BENCH_LANES
+from dexpush.experiments.cluster import ENGINES
 from dexpush.experiments.methods import method_names
 from dexpush.experiments.registry import PARAMS, PLANTS, SHAPES
 from dexpush.experiments.scenarios import MAX_STEPS
@@ -215,6 +216,13 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--workers", type=positive_int, default=os.cpu_count() or 1,
                        help="processes, one (task, shape) group each, one XLA thread each (default: the "
                             f"core count, {os.cpu_count() or 1} here)")
+    bench.add_argument("--engine", default="local", choices=ENGINES,
+                       help="run the (task, shape) groups in local worker processes, or as tasks on Ray (a local "
+                            "instance of --workers CPUs on 127.0.0.1, or --ray-address; needs dexpush[cluster]) "
+                            "(default local)")
+    bench.add_argument("--ray-address", default=None, metavar="ADDRESS",
+                       help="with --engine ray: a running cluster (ray://HOST:10001 or HOST:6379); its nodes must see "
+                            "--out at the same path (docs/performance.md#sweeps-on-ray)")
     bench.add_argument("--plant", default="model", choices=PLANTS,
                        help="model: batched C-GVMM world; physics: MuJoCo, trials one by one; physics-random: "
                             "the same as --plant physics --randomize (default model)")
@@ -311,6 +319,7 @@ def _note(message: Warning | str, category: type[Warning], *_: object, **__: obj
 def main(argv: Sequence[str] | None = None) -> int:
     argv = _joined_negatives(list(sys.argv[1:] if argv is None else argv))
     args = build_parser().parse_args(argv)
+    args.argv = argv                        # a command that runs itself again (in a namespace) passes them on
     import matplotlib
 
     matplotlib.use("Agg")                   # figures go to files: no display needed, none opened

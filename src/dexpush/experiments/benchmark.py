@@ -32,6 +32,7 @@ from dexpush.common.files import write_json_atomic
 from dexpush.common.interfaces import Sensor
 from dexpush.common.progress import progress_bar
 from dexpush.control.controller import ControllerSettings
+from dexpush.experiments.cluster import ENGINES, run_on_ray
 from dexpush.experiments.methods import get_method
 from dexpush.experiments.records import Condition, condition_name, make_episode
 from dexpush.experiments.registry import PLANTS, check_condition, make_shape, world_sensor
@@ -56,7 +57,7 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
                   methods: Sequence[str], seeds: Sequence[int], max_steps: int = MAX_STEPS,
                   lanes: int = BENCH_LANES, settings: ControllerSettings | None = None,
                   progress: bool = True, figures: bool = True, workers: int = 1, plant: str = "model",
-                  sensor: Sensor | None = None) -> list[dict]:
+                  sensor: Sensor | None = None, engine: str = "local", address: str | None = None) -> list[dict]:
     """Run the trials of every condition (task × shape × params × method), resumably.
 
     Each condition has its file ``out/conditions/<task>_<shape>_<params>_<method>.json``,
@@ -70,8 +71,10 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
     as its trial ends, so a resumed run keeps them) and a figure
     ``out/figures/<condition>.png``. ``out/settings.json`` records the plant, sensor,
     controller settings, ``max_steps`` and ``lanes``; a run with other settings into the same
-    folder is refused with a ``ValueError`` that names the differences. Returns the records
-    in condition, then seed, order.
+    folder is refused with a ``ValueError`` that names the differences. ``engine="ray"`` runs the
+    groups as tasks on Ray instead (:mod:`dexpush.experiments.cluster`: a local instance of
+    ``workers`` CPUs on 127.0.0.1, or the cluster at ``address``), with the same records. Returns
+    the records in condition, then seed, order.
     """
     out = Path(out)
     task_keys = [get_task(t).key for t in tasks]
@@ -84,6 +87,10 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
         raise ValueError(f"unknown plant {plant!r}; choose one of {', '.join(PLANTS)}")
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
+    if engine not in ENGINES:
+        raise ValueError(f"unknown engine {engine!r}; choose one of {', '.join(ENGINES)}")
+    if address is not None and engine != "ray":
+        raise ValueError("a cluster address is for engine='ray'")
     exact = sensor is None or sensor.perfect
     for m in map(get_method, methods):
         m.check_sensing(exact)
@@ -95,7 +102,10 @@ def run_benchmark(out: str | os.PathLike, tasks: Sequence[str], shapes: Sequence
     groups = sorted(((t, sh) for t in task_keys for sh in shapes), key=_expected_cost, reverse=True)
     common = dict(params=tuple(params), methods=tuple(methods), seeds=tuple(seeds), max_steps=max_steps,
                   lanes=lanes, settings=settings, progress=progress, figures=figures, plant=plant, sensor=sensor)
-    if workers == 1 or len(groups) == 1:
+    if engine == "ray":
+        calls = [((out, t, sh), {**common, "position": i % workers}) for i, (t, sh) in enumerate(groups)]
+        run_on_ray(_run_group, calls, workers=workers, address=address)
+    elif workers == 1 or len(groups) == 1:
         for t, sh in groups:
             _run_group(out, t, sh, **common)
     else:

@@ -24,10 +24,10 @@ from typing import Any
 import numpy as np
 
 from dexpush.common.files import atomic_path
+from dexpush.common.netns import ros_environment, why_not_loopback
 from dexpush.experiments.registry import make_plant
 from dexpush.experiments.scenarios import MAX_STEPS, TASKS
 from dexpush.model.shape import Shape
-from dexpush.ros.netns import ros_environment, why_not_loopback
 from dexpush.world.sensing import SensorSettings
 
 __all__ = ["run_ros_episodes", "stop_node"]

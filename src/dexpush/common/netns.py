@@ -1,7 +1,8 @@
-"""Keeping ROS 2 traffic on the machine: a network namespace with only the loopback interface up.
+"""Keeping traffic on the machine: a network namespace with only the loopback interface up.
 
-DDS discovers peers by multicast on every interface it finds. The example system and the tests
-run inside a namespace whose one interface is ``lo`` (with a multicast route on it, so discovery
+DDS discovers peers by multicast on every interface it finds, and a local Ray instance listens on
+every interface whatever its node address. The ROS 2 example system, its tests and a local Ray
+instance run inside a namespace whose one interface is ``lo`` (with a multicast route on it, so discovery
 works there), and with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` as well: no packet can reach
 another machine. :func:`in_loopback_namespace` says whether this process is in one;
 :func:`loopback_command` wraps a command to run in a new one (``unshare -rn``: an unprivileged
