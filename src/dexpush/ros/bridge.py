@@ -73,7 +73,6 @@ class PlantBridge:
         self._twist = np.zeros(2)
         self._twist_at = -math.inf
         self.status: dict = {}
-        self._status_at = -math.inf
         self.trace: list[tuple[float, str, str]] | None = None
 
     def now(self) -> float:
@@ -88,7 +87,7 @@ class PlantBridge:
 
     def _on_status(self, msg: Any) -> None:
         with self._lock:
-            self.status, self._status_at = json.loads(msg.data), time.monotonic()
+            self.status = json.loads(msg.data)
         if self.trace is not None:
             self.trace.append((self.now(), "status", msg.data))
 

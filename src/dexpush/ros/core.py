@@ -280,6 +280,7 @@ class NodeCore:
                                             self.shape.pusher_radius, guard, position=self._newest_pusher,
                                             frame_timeout_s=self.node.frame_timeout_s)
         self.problem, self._started, self._reached, self._k = problem, False, False, 0
+        self.error = np.full(2, np.nan)
 
     def _safety(self, problem: Problem) -> SafetySettings:
         """The filter's settings with the workspace's bounding box (shrunk by the pusher) when it has none."""
@@ -304,17 +305,17 @@ class NodeCore:
         now = self.clock()
         self.periods += 1
         if self.controller is None:
-            return self._hold("idle", now)
+            return self._hold("idle")
         with self._lock:
             q, pushers = self._object, list(self._pusher)
         if q is None or not pushers or now - q.stamp > self.node.stale_s or now - pushers[-1].stamp > self.node.stale_s:
-            return self._hold("stale" if q is not None and pushers else "waiting", now)
+            return self._hold("stale" if q is not None and pushers else "waiting")
         if self._reached:
-            return self._hold("reached", now)
+            return self._hold("reached")
         frame, received = self._frame(now)
         if not self._started:
             if frame is None:
-                return self._hold("waiting", now)
+                return self._hold("waiting")
             self.controller.reset(frame.object_pose, frame.pusher_xy)
             if self._carry is not None:
                 self.controller.controller.set_params(self._carry)
@@ -328,15 +329,15 @@ class NodeCore:
             if pos < f * self.problem.tolerance_m and head < f * self.problem.tolerance_deg:
                 self._reached = True
                 self._log(f"dexpush: goal reached (observed error {pos * 1e3:.1f} mm, {float(head):.2f} deg)")
-                return self._hold("reached", now)
-        return self._issue(u, "pushing", now, received)
+                return self._hold("reached")
+        return self._issue(u, "pushing", received)
 
-    def _hold(self, mode: str, now: float) -> Tick:
+    def _hold(self, mode: str) -> Tick:
         if self.controller is not None:
             self.controller.hold()
-        return self._issue(np.zeros(2), mode, now, None)
+        return self._issue(np.zeros(2), mode, None)
 
-    def _issue(self, u: np.ndarray, mode: str, now: float, received: float | None) -> Tick:
+    def _issue(self, u: np.ndarray, mode: str, received: float | None) -> Tick:
         with self._lock:
             self._command, self._command_at = u, self.clock()
         self.mode = mode
