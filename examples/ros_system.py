@@ -32,19 +32,15 @@ def main() -> int:
     p.add_argument("--out", default="out/examples/ros", help="output folder (default out/examples/ros)")
     args = p.parse_args()
 
-    from dexpush.common.netns import in_loopback_namespace, loopback_command
+    from dexpush.common.netns import run_in_loopback_namespace
 
-    if not in_loopback_namespace():
-        if os.environ.get("DEXPUSH_IN_NAMESPACE"):
-            print("ros_system: the new namespace is not loopback-only; not running ROS 2", file=sys.stderr)
-            return 2
-        os.environ["DEXPUSH_IN_NAMESPACE"] = "1"
-        try:
-            argv = loopback_command([sys.executable, *sys.argv])
-        except OSError as exc:
-            print(f"ros_system: {exc}", file=sys.stderr)
-            return 2
-        os.execvp(argv[0], argv)
+    try:
+        code = run_in_loopback_namespace([sys.executable, *sys.argv])   # DDS never leaves the machine
+    except OSError as exc:
+        print(f"ros_system: {exc}; not running ROS 2", file=sys.stderr)
+        return 2
+    if code is not None:
+        return code
 
     from dataclasses import replace
 

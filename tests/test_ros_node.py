@@ -41,7 +41,7 @@ from dexpush.experiments.registry import make_shape  # noqa: E402
 from dexpush.experiments.ros_trial import stop_node  # noqa: E402
 from dexpush.experiments.scenarios import TASKS  # noqa: E402
 from dexpush.ros.bridge import PlantBridge  # noqa: E402
-from dexpush.ros.node import planar_pose  # noqa: E402
+from dexpush.ros.node import clock_seconds, planar_pose  # noqa: E402
 from dexpush.world.model_plant import ModelPlant  # noqa: E402
 from dexpush.world.sensing import SensorSettings  # noqa: E402
 
@@ -82,7 +82,7 @@ class Probe:
         self.status = json.loads(m.data)
 
     def now(self) -> float:
-        return self.node.get_clock().now().nanoseconds * 1e-9
+        return clock_seconds(self.node)
 
     def pose(self, x, y, th=0.0, stamp=None, frame="world") -> PoseStamped:
         return planar_pose(PoseStamped(), frame, (x, y, th), self.now() if stamp is None else stamp)

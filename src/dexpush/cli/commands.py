@@ -330,25 +330,6 @@ def cmd_fit(args: argparse.Namespace) -> dict:
     return summary
 
 
-def _rerun_in_loopback_namespace(args: argparse.Namespace) -> None:
-    """Outside a loopback-only network namespace, run this command again in a new one (a local Ray instance
-    listens on every interface: dexpush.experiments.cluster) and exit with its code; inside, return."""
-    from dexpush.common.netns import loopback_command, why_not_loopback
-
-    why = why_not_loopback()
-    if why is None:
-        return
-    if os.environ.get("DEXPUSH_IN_NAMESPACE"):
-        raise OSError(f"the new network namespace is not loopback-only ({why}); not starting Ray")
-    command = loopback_command([sys.executable, "-m", "dexpush.cli", *args.argv])
-    import subprocess
-
-    if not args.quiet:
-        print("dexpush: starting Ray in a loopback-only network namespace", file=sys.stderr)
-    raise SystemExit(subprocess.call(command, env={**os.environ, "DEXPUSH_IN_NAMESPACE": "1",
-                                                   "RAY_USAGE_STATS_ENABLED": "0"}))
-
-
 def cmd_bench(args: argparse.Namespace) -> dict:
     import datetime
     import platform
@@ -378,8 +359,15 @@ def cmd_bench(args: argparse.Namespace) -> dict:
     check_bench_config(config, args)
     if config.run.camera == "rendered" and args.plant == "model":
         raise ValueError("--camera rendered sees the MuJoCo plant: add --plant physics (or --randomize)")
-    if args.engine == "ray" and args.ray_address is None:
-        _rerun_in_loopback_namespace(args)
+    if args.engine == "ray" and args.ray_address is None:   # a local Ray instance listens on every interface
+        from dexpush.common.netns import run_in_loopback_namespace, why_not_loopback
+
+        if not args.quiet and why_not_loopback() is not None:
+            print("dexpush: starting Ray in a loopback-only network namespace", file=sys.stderr)
+        code = run_in_loopback_namespace([sys.executable, "-m", "dexpush.cli", *args.argv],
+                                         {"RAY_USAGE_STATS_ENABLED": "0"})
+        if code is not None:
+            raise SystemExit(code)
     t0 = time.perf_counter()
     records = run_benchmark(args.out, tasks, shapes, params, methods, seeds, max_steps=args.max_steps,
                             lanes=args.lanes, progress=not args.quiet, figures=not args.no_figures,

@@ -6,7 +6,8 @@ instance run inside a namespace whose one interface is ``lo`` (with a multicast 
 works there), and with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` as well: no packet can reach
 another machine. :func:`in_loopback_namespace` says whether this process is in one;
 :func:`loopback_command` wraps a command to run in a new one (``unshare -rn``: an unprivileged
-user and network namespace); :data:`LOCALHOST_ENV` is the environment ROS 2 needs there.
+user and network namespace), :func:`run_in_loopback_namespace` runs it there unless this process is in one;
+:data:`LOCALHOST_ENV` is the environment ROS 2 needs there.
 """
 
 from __future__ import annotations
@@ -16,7 +17,8 @@ import shutil
 import socket
 from pathlib import Path
 
-__all__ = ["LOCALHOST_ENV", "in_loopback_namespace", "loopback_command", "ros_environment", "why_not_loopback"]
+__all__ = ["LOCALHOST_ENV", "in_loopback_namespace", "loopback_command", "ros_environment",
+           "run_in_loopback_namespace", "why_not_loopback"]
 
 #: ROS 2's own limit on discovery (Jazzy and later), set beside the namespace
 LOCALHOST_ENV = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
@@ -51,6 +53,20 @@ def loopback_command(argv: list[str]) -> list[str]:
         if shutil.which(tool) is None:
             raise OSError(f"{tool} is not installed: it makes the loopback-only network namespace ROS 2 runs in here")
     return ["unshare", "-rn", "sh", "-c", _SETUP, "sh", *argv]
+
+
+def run_in_loopback_namespace(argv: list[str], env: dict[str, str] | None = None) -> int | None:
+    """None when this process is in a loopback-only namespace already; else ``argv`` run in a new one (with
+    ``env`` added to this environment) and its exit code. An ``OSError`` when a namespace made for this
+    process (``DEXPUSH_IN_NAMESPACE`` set) is still not loopback-only, or ``unshare`` or ``ip`` is missing."""
+    import subprocess
+
+    why = why_not_loopback()
+    if why is None:
+        return None
+    if os.environ.get("DEXPUSH_IN_NAMESPACE"):
+        raise OSError(f"the new network namespace is not loopback-only ({why})")
+    return subprocess.call(loopback_command(argv), env={**os.environ, **(env or {}), "DEXPUSH_IN_NAMESPACE": "1"})
 
 
 def ros_environment() -> dict[str, str]:

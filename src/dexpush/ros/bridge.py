@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from dexpush.ros.node import Topics, planar_pose, require_rclpy
+from dexpush.ros.node import Topics, clock_seconds, planar_pose, require_rclpy
 
 __all__ = ["BridgeResult", "PlantBridge"]
 
@@ -76,7 +76,7 @@ class PlantBridge:
         self.trace: list[tuple[float, str, str]] | None = None
 
     def now(self) -> float:
-        return self.node.get_clock().now().nanoseconds * 1e-9
+        return clock_seconds(self.node)
 
     def _on_twist(self, msg: Any) -> None:
         v = np.array([msg.twist.linear.x, msg.twist.linear.y])

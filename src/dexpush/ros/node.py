@@ -25,7 +25,7 @@ import numpy as np
 from dexpush.robot.smoothing import CommandSmoother
 from dexpush.ros.core import NodeCore, yaw_of
 
-__all__ = ["Topics", "planar_pose", "require_rclpy", "run_node", "seconds", "set_stamp"]
+__all__ = ["Topics", "clock_seconds", "planar_pose", "require_rclpy", "run_node", "seconds", "set_stamp"]
 
 
 def require_rclpy() -> Any:
@@ -61,6 +61,11 @@ def set_stamp(stamp: Any, t: float) -> None:
     stamp.sec, stamp.nanosec = sec, min(int((t - sec) * 1e9), 999_999_999)
 
 
+def clock_seconds(node: Any) -> float:
+    """An rclpy node's clock now, in seconds."""
+    return node.get_clock().now().nanoseconds * 1e-9
+
+
 def planar_pose(msg: Any, frame_id: str, xyt: object, t: float) -> Any:
     """``msg`` (a ``geometry_msgs/PoseStamped``) holding the planar pose (x, y[, θ]) at time ``t`` in ``frame_id``."""
     v = [float(c) for c in np.ravel(xyt)]
@@ -76,7 +81,7 @@ class _Node:
     """The rclpy side: subscriptions, publishers, the stream timer and the planner thread."""
 
     def __init__(self, core: NodeCore, topics: Topics, name: str) -> None:
-        rclpy = require_rclpy()
+        require_rclpy()
         from geometry_msgs.msg import PoseStamped, TwistStamped
         from rclpy.node import Node
         from rclpy.qos import QoSProfile, qos_profile_sensor_data
@@ -85,7 +90,6 @@ class _Node:
         self.core = core
         self.node = Node(name)
         self._Twist, self._String = TwistStamped, String
-        self._rclpy = rclpy
         reliable = QoSProfile(depth=10)
         n = self.node
         n.create_subscription(PoseStamped, topics.object_pose, self._on_object, qos_profile_sensor_data)
@@ -108,7 +112,7 @@ class _Node:
 
     # ------------------------------------------------------------------ messages in
     def now(self) -> float:
-        return self.node.get_clock().now().nanoseconds * 1e-9
+        return clock_seconds(self.node)
 
     def _on_object(self, msg: Any) -> None:
         p, q = msg.pose.position, msg.pose.orientation
@@ -144,10 +148,12 @@ class _Node:
         elif tripped:
             self._publish(target)
 
+    def status(self) -> dict[str, Any]:
+        """The status message's fields: the core's and the watchdog's trips."""
+        return {**self.core.status(), "watchdog_trips": self.watchdog_trips}
+
     def _status(self) -> None:
-        status = self.core.status()
-        status["watchdog_trips"] = self.watchdog_trips
-        self.status_pub.publish(self._String(data=json.dumps(status)))
+        self.status_pub.publish(self._String(data=json.dumps(self.status())))
 
     # ------------------------------------------------------------------ the planner
     def _plan_loop(self) -> None:
@@ -214,8 +220,7 @@ def run_node(core: NodeCore, topics: Topics | None = None, name: str = "dexpush"
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        status = core.status()
-        status["watchdog_trips"] = node.watchdog_trips
+        status = node.status()
         node.close()
         if own and rclpy.ok():
             rclpy.shutdown()
