@@ -196,13 +196,15 @@ def test_the_robot_command_runs_an_episode_and_writes_what_run_writes(tmp_path: 
     import sys
 
     out = tmp_path / "robot"
-    proc = subprocess.run([sys.executable, "-m", "dexpush.cli", "robot", "--sim", "--task", "II", "--max-steps", "30",
+    # Task IV: walls (prisms in the simulated world, keep-out polygons in the filter) and discs, in the arm's reach
+    proc = subprocess.run([sys.executable, "-m", "dexpush.cli", "robot", "--sim", "--task", "IV", "--max-steps", "30",
                            "--no-animation", "--quiet", "--out", str(out)], capture_output=True, text=True, timeout=300)
     assert proc.returncode in (0, 1), proc.stderr          # 1: not at the goal within 30 steps
     summary = json.loads(proc.stdout.strip().splitlines()[-1])
     assert summary["plant"] == "franka-sim" and summary["steps"] == 30
     robot = summary["robot"]
     assert robot["reflex_limit_steps"] == 0 and robot["joint_limit_steps"] == 0 and robot["workspace_exits"] == 0
+    assert summary["collisions"] == 0
     for name in ("summary.json", "trajectory.png", "trajectory.npz", "push_log.csv"):
         assert (out / name).exists()
     from dexpush.data.push_logs import read_log

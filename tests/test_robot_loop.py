@@ -152,8 +152,13 @@ def test_the_table_frame_round_trips_and_faces_the_task() -> None:
     assert np.allclose(s.to_table(s.to_base(p)), p)
     f = DriverSettings().facing((0.0, 0.0), (0.6, 0.3))
     a, b = f.to_base((0.0, 0.0)), f.to_base((0.6, 0.3))
-    assert np.allclose((a + b) / 2, (0.52, 0.0))
+    mid = (a + b) / 2
+    assert abs(mid[1]) < 1e-9 and 0.45 < mid[0] < 0.6
     assert abs(a[0] - b[0]) < 1e-9             # start to goal runs across the robot's front
+    r_min, r_max = f.reach                     # the path's middle as far inside r_min as its ends inside r_max
+    assert np.isclose(mid[0] - r_min, r_max - np.linalg.norm(a)) and np.isclose(np.linalg.norm(a), np.linalg.norm(b))
+    spot = DriverSettings().facing((0.1, 0.1), (0.1, 0.1))
+    assert np.allclose(spot.to_base((0.1, 0.1)), ((r_min + r_max) / 2, 0.0))
     bx, by, r0, r1 = f.reach_in_table()
     assert np.allclose(f.to_base((bx, by)), 0.0) and (r0, r1) == f.reach
 
@@ -163,3 +168,43 @@ def test_the_table_frame_round_trips_and_faces_the_task() -> None:
 def test_bad_driver_settings_are_refused(bad: dict) -> None:
     with pytest.raises(ValueError):
         DriverSettings(**bad)
+
+
+@pytest.mark.parametrize("key", ["I", "II", "III", "IV"])
+@pytest.mark.parametrize("shape_name", ["rect", "tee", "ellipse"])
+def test_every_task_fits_the_arm_and_starts_within_its_reach(key: str, shape_name: str) -> None:
+    """On the robot the planner knows the arm: the object and the pusher stay in the task's area (within the
+    object's overhang of the reach), the pusher within the reach; each start fits, its pusher moved round the
+    object when the task's azimuth is out of reach."""
+    from dexpush.experiments.registry import make_shape
+    from dexpush.experiments.robot_trial import RobotSettings, reachable_pusher_start, robot_area, robot_problem
+    from dexpush.experiments.scenarios import get_task
+    from dexpush.problem.regions import point_gap
+
+    task, shape, robot = get_task(key), make_shape(shape_name), RobotSettings()
+    for seed in (0, 7, 13, 29):
+        problem = task.problem(shape, seed=seed)
+        pose, pusher = task.trial_start(shape, seed)
+        goal = np.asarray(problem.goal[:2])
+        driver = robot.driver.facing(pose[:2], goal)
+        area, reach = robot_area(problem, robot, driver, [pose[:2], pusher, goal], (pose[:2] + goal) / 2)
+        bounded = robot_problem(problem, area, reach)
+        start = reachable_pusher_start(shape, pose, pusher, reach)
+        bounded.check_start(pose, start)                  # raises when the start touches or leaves the area
+        assert point_gap(start, np.asarray(reach)) <= -shape.pusher_radius + 1e-9
+        base = driver.to_base(np.asarray(reach))           # the pusher's area lies inside the annulus
+        r = np.linalg.norm(base, axis=1)
+        r_min, r_max = driver.reach
+        assert np.all(r <= r_max - robot.reach_margin + 1e-9) and np.all(r >= r_min + robot.reach_margin - 1e-9)
+        assert (bounded.guide is None) == (not problem.polygons and problem.workspace is None)
+
+
+def test_a_task_out_of_reach_is_refused_in_one_line() -> None:
+    from dexpush.experiments.registry import make_shape
+    from dexpush.experiments.robot_trial import RobotSettings, robot_area
+    from dexpush.experiments.scenarios import get_task
+
+    task, shape = get_task("I"), make_shape("rect")
+    far = DriverSettings(table_origin=(3.0, 0.0))
+    with pytest.raises(ValueError, match="reach"):
+        robot_area(task.problem(shape), RobotSettings(), far, [(0.0, 0.0), (0.6, 0.3)], (0.3, 0.15))

@@ -27,7 +27,7 @@ def _inflated() -> np.ndarray:
 
 def _safe_start(rng: np.random.Generator) -> np.ndarray:
     while True:
-        p = rng.uniform([BOX[0], BOX[1]], [BOX[2], BOX[3]])
+        p = rng.uniform([BOX[0] + RHO, BOX[1] + RHO], [BOX[2] - RHO, BOX[3] - RHO])   # the pusher disc inside
         r = np.linalg.norm(p - (0.0, -0.6))
         if np.all(np.linalg.norm(p - OBSTACLES[:, :2], axis=1) > _inflated()) and 0.35 < r < 0.75:
             return p
@@ -47,7 +47,7 @@ def test_never_leaves_the_safe_set_and_never_exceeds_a_limit(seed: int, requests
             assert np.linalg.norm(v - v_prev) <= S.a_max * T + 1e-9
         p = p + v * T
         v_prev = v
-        assert BOX[0] - 1e-9 <= p[0] <= BOX[2] + 1e-9 and BOX[1] - 1e-9 <= p[1] <= BOX[3] + 1e-9
+        assert BOX[0] + RHO - 1e-9 <= p[0] <= BOX[2] - RHO + 1e-9 and BOX[1] + RHO - 1e-9 <= p[1] <= BOX[3] - RHO + 1e-9
         assert np.all(np.linalg.norm(p - OBSTACLES[:, :2], axis=1) >= _inflated() - 1e-9)
         r_base = np.linalg.norm(p - (0.0, -0.6))
         assert 0.35 - 1e-9 <= r_base <= 0.75 + 5e-4     # the outer circle is met by its tangent: < 0.5 mm beyond
@@ -62,7 +62,7 @@ def test_the_identity_on_safe_commands(seed: int, a: float, speed: float, b: flo
     v_prev = speed * np.array([np.cos(a), np.sin(a)])
     u = v_prev + change * np.array([np.cos(b), np.sin(b)])
     margin = 1.0 * max(np.linalg.norm(u), 1e-9) * S.braking_s    # far enough that no barrier binds
-    far = (min(p[0] - BOX[0], BOX[2] - p[0], p[1] - BOX[1], BOX[3] - p[1]) > margin
+    far = (min(p[0] - BOX[0], BOX[2] - p[0], p[1] - BOX[1], BOX[3] - p[1]) - RHO > margin   # the pusher disc
            and np.all(np.linalg.norm(p - OBSTACLES[:, :2], axis=1) - _inflated() > margin)
            and 0.35 + margin < np.linalg.norm(p - (0.0, -0.6)) < 0.75 - margin)
     if not far or np.linalg.norm(u) > S.v_max * np.cos(np.pi / 16):
@@ -143,3 +143,57 @@ def test_the_guarded_controller_filters_and_stops_without_frames() -> None:
     v = g.act(_frame(0.0, 0.3), 1 / 15)                  # frames are back: it moves again
     assert np.linalg.norm(v) > 0
     assert stub.seen[-1] is not None
+
+
+# ---------------------------------------------------------------- polygon workspaces and keep-out polygons
+HEXAGON = ((-0.3, -0.1), (-0.1, -0.25), (0.25, -0.2), (0.3, 0.05), (0.1, 0.25), (-0.25, 0.15))
+WALL = np.array([[0.0, -0.02], [0.2, 0.06], [0.19, 0.085], [-0.01, 0.005]])   # a thin slanted wall
+SP = SafetySettings(v_max=0.15, a_max=2.5, workspace=HEXAGON, braking_s=0.3)
+
+
+def _polygon_gap(p: np.ndarray, poly: np.ndarray) -> float:
+    from dexpush.problem.regions import point_gap
+    return float(point_gap(p, poly))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 10_000), st.lists(velocity, min_size=60, max_size=60))
+def test_a_polygon_workspace_and_keep_out_polygons_hold_the_pusher_disc(seed: int, requests: list) -> None:
+    rng = np.random.default_rng(seed)
+    hexagon = np.array(HEXAGON)
+    while True:                           # a start inside the hexagon and clear of the wall, pusher disc and all
+        p = rng.uniform(-0.3, 0.3, 2)
+        if _polygon_gap(p, hexagon) < -RHO and _polygon_gap(p, WALL) > RHO + SP.keep_out_margin:
+            break
+    v_prev = np.zeros(2)
+    for u in requests:
+        v = safe_velocity(u, p, v_prev, T, SP, (), RHO, (WALL,)).velocity
+        assert np.linalg.norm(v) <= SP.v_max + 1e-9
+        p, v_prev = p + v * T, v
+        assert _polygon_gap(p, hexagon) <= -RHO + 1e-9                       # the disc stays inside
+        assert _polygon_gap(p, WALL) >= RHO + SP.keep_out_margin - 1e-9      # and off the wall
+
+
+def test_a_rectangle_workspace_is_the_same_as_its_corners() -> None:
+    rect = SafetySettings(workspace=BOX)
+    corners = SafetySettings(workspace=((BOX[0], BOX[1]), (BOX[2], BOX[1]), (BOX[2], BOX[3]), (BOX[0], BOX[3])))
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        p, u = rng.uniform(-0.3, 0.3, 2), rng.uniform(-0.2, 0.2, 2)
+        a = safe_velocity(u, p, u, T, rect, (), RHO).velocity
+        b = safe_velocity(u, p, u, T, corners, (), RHO).velocity
+        assert np.allclose(a, b, atol=1e-12)
+
+
+def test_keep_out_polygons_pass_a_command_that_leaves_them_alone() -> None:
+    p, u = np.array([0.1, -0.15]), np.array([-0.05, -0.01])             # below the wall, moving away from it
+    r = safe_velocity(u, p, u, T, SP, (), RHO, (WALL,))
+    assert not r.changed
+    r = safe_velocity((0.0, 0.1), (0.1, 0.0), (0.0, 0.1), T, SP, (), RHO, (WALL,))   # straight at it, 2 cm away
+    assert r.changed and "keep-out" in r.active and r.velocity[1] < 0.1
+
+
+@pytest.mark.parametrize("bad", [((0, 0), (1, 0), (1, 1), (0.9, 0.2)), ((0, 0), (1, 0))])
+def test_a_bad_workspace_polygon_is_refused_with_a_message(bad: tuple) -> None:
+    with pytest.raises(ValueError, match="workspace"):
+        SafetySettings(workspace=bad)

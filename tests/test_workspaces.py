@@ -13,7 +13,7 @@ from dexpush.experiments.scenarios import TASKS, initial_conditions
 from dexpush.problem.guidance import GRID_STRETCH, cost_to_go
 from dexpush.problem.obstacles import _polygon_gaps_vectorised, clearance, obstacle_distances, polygon_gaps
 from dexpush.problem.problem import Problem
-from dexpush.problem.regions import box, convex_polygon, point_gap, wall, workspace_halfplanes
+from dexpush.problem.regions import box, clip_convex, convex_polygon, halfplanes, point_gap, wall, workspace_halfplanes
 from dexpush.problem.scene import Scene
 from dexpush.problem.scene_file import Layout, load_scene
 from dexpush.problem.weights import CostWeights
@@ -106,6 +106,44 @@ def test_a_problem_without_obstacles_has_no_guide_and_the_same_scene() -> None:
     assert plain.guide is None and not plain.has_obstacles
     assert plain.scene.guide.size == 0 and plain.scene.polygons.shape[0] == 0 and plain.scene.bounds.shape[0] == 0
     assert Scene.make(RECT, np.array([0.6, 0.3, 0.0]), np.zeros((0, 3)), CostWeights()).polygons.shape[0] == 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 10_000), st.integers(1, 6))
+def test_clipping_keeps_exactly_the_points_inside_both(seed: int, cuts: int) -> None:
+    rng = np.random.default_rng(seed)
+    square = np.array([[-0.3, -0.3], [0.3, -0.3], [0.3, 0.3], [-0.3, 0.3]])
+    ang = rng.uniform(0, 2 * np.pi, cuts)
+    rows = np.c_[np.cos(ang), np.sin(ang), rng.uniform(-0.1, 0.4, cuts)]
+    clipped = clip_convex(square, rows)
+    pts = rng.uniform(-0.35, 0.35, (400, 2))
+    both = np.maximum(np.max(pts @ rows[:, :2].T - rows[:, 2], 1), point_gap(pts, square))   # < 0: inside both
+    if len(clipped) == 0:
+        assert not np.any(both < -1e-6)
+        return
+    assert np.all(clipped @ rows[:, :2].T - rows[:, 2] <= 1e-9)           # every corner keeps every cut
+    assert np.all(point_gap(clipped, square) <= 1e-9)
+    h = halfplanes(convex_polygon(clipped))                                 # convex and counter-clockwise
+    clip = np.max(pts @ h[:, :2].T - h[:, 2], 1)
+    assert not np.any((both < -1e-6) & (clip > 1e-6)) and not np.any((clip < -1e-6) & (both > 1e-6))
+
+
+def test_the_pusher_workspace_bounds_the_pusher_alone() -> None:
+    """A pusher-only bound (a robot's reach) charges the pusher's leaving it, not the footprint's; the judge
+    leaves it out; without one the scene is what it was."""
+    from dexpush.problem.cost import obstacle_cost
+    w = CostWeights(guidance=False)
+    free = Problem(RECT, (0.0, 0.0, 0.0), workspace=(-1.0, -1.0, 1.0, 1.0), weights=w)
+    held = Problem(RECT, (0.0, 0.0, 0.0), workspace=(-1.0, -1.0, 1.0, 1.0), weights=w,
+                   pusher_workspace=(-0.3, -0.3, 0.3, 0.3))
+    assert free.scene.pusher_bounds.shape[0] == 0 and held.scene.pusher_bounds.shape[0] == 4
+    object_out = np.array([[0.35, 0.0, 0.0, 0.0, 0.2]])      # the footprint past x = 0.3, the pusher inside
+    pusher_out = np.array([[0.0, 0.0, 0.0, 0.35, 0.0]])      # the pusher past x = 0.3
+    cost = lambda p, x: float(np.asarray(obstacle_cost(x, p.scene, w))[0])   # noqa: E731
+    assert cost(held, object_out) == cost(free, object_out) == 0.0
+    assert cost(held, pusher_out) >= w.C_pen > cost(free, pusher_out)
+    assert not held.collides(pusher_out)[0]                  # leaving the reach is not a touch
+    assert set(held.with_weights(w).pusher_workspace) == set(held.pusher_workspace)
 
 
 # ---------------------------------------------------------------- guidance

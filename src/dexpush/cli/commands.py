@@ -144,8 +144,7 @@ def cmd_robot(args: argparse.Namespace) -> dict:
     sensor = build_sensor(config)
     if sensor is None and getattr(args, "camera", None) != "exact":
         sensor = SensorSettings.realistic(seed=0)           # a robot sees through a camera unless told otherwise
-    robot = RobotSettings(safety=SafetySettings(v_max=args.v_limit, a_max=args.a_limit,
-                                                workspace=tuple(args.workspace) if args.workspace else None),
+    robot = RobotSettings(safety=SafetySettings(v_max=args.v_limit, a_max=args.a_limit),
                           driver=DriverSettings(dynamics_factor=args.dynamics_factor))
     params = run.params if run.lambda_pred is None else lambda_pred(run)
     t0 = time.perf_counter()

@@ -139,15 +139,12 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument("--sim", action="store_true", help="the simulated FR3 on 127.0.0.1, started and shut down "
                                                          "here (the default)")
     where.add_argument("--robot", metavar="ADDRESS", default=None, help="a real Franka's FCI address")
-    # the robot's safety filter has no boxes or walls yet (docs/workspaces.md)
-    share_run_flags(rob, what, how, skip=("print_config", "obstacle_box", "wall", "table_workspace"))
+    share_run_flags(rob, what, how, skip=("print_config",))
     safe = rob.add_argument_group("robot and safety filter")
     safe.add_argument("--v-limit", type=positive_float, default=0.15,
                       help="the filter's speed limit (m/s, default 0.15)")
     safe.add_argument("--a-limit", type=positive_float, default=2.5,
                       help="the filter's acceleration limit (m/s², default 2.5)")
-    safe.add_argument("--workspace", type=floats(4, "--workspace"), default=None, metavar="XMIN,YMIN,XMAX,YMAX",
-                      help="where the pusher may go, in the table frame (m) (default: 0.25 m around start and goal)")
     safe.add_argument("--dynamics-factor", type=positive_float, default=0.2,
                       help="fraction of the Franka's velocity, acceleration and jerk limits (default 0.2)")
     add_planner_flags(rob)

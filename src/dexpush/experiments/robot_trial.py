@@ -18,13 +18,16 @@ from dexpush.control.controller import ControllerSettings
 from dexpush.experiments.methods import Method, get_method
 from dexpush.experiments.records import Condition, Episode, make_episode
 from dexpush.experiments.runner import run_trial, trial_spec
-from dexpush.experiments.scenarios import Task
+from dexpush.experiments.scenarios import MAX_STEPS, Task
 from dexpush.model.shape import Shape
+from dexpush.problem.problem import Problem
+from dexpush.problem.regions import MAX_POLYGON_CORNERS, clip_convex, workspace_halfplanes
 from dexpush.robot.driver import DriverSettings, RobotPlant
 from dexpush.robot.guarded import FrameGuard, GuardedController
 from dexpush.robot.safety import SafetySettings
 
-__all__ = ["EXIT_TOLERANCE_M", "Guarded", "RobotSettings", "run_robot_episode", "task_workspace"]
+__all__ = ["EXIT_TOLERANCE_M", "Guarded", "RobotSettings", "reachable_pusher_start", "robot_area", "robot_problem",
+           "run_robot_episode", "task_workspace"]
 
 #: a tip beyond the workspace by more than this (m) counts as a workspace exit (the arm's tracking
 #: error at the boundary, well under a millimetre, does not)
@@ -37,8 +40,9 @@ class RobotSettings:
 
     ``driver.table_origin`` and ``table_yaw`` place the table frame in the robot's base frame; for
     the simulated robot they are chosen per episode (:meth:`DriverSettings.facing`: the task in
-    front of the robot) unless ``place_task`` is False. Without ``safety.workspace`` the
-    workspace is the box around the start and the goal grown by ``workspace_margin``.
+    front of the robot) unless ``place_task`` is False. The planner and the filter share one bound
+    (:func:`robot_area`): the task's workspace, or the box around the start and the goal grown by
+    ``workspace_margin``, within ``safety.workspace`` and ``reach_margin`` inside the arm's reach.
     """
 
     safety: SafetySettings = field(default_factory=SafetySettings)
@@ -48,12 +52,16 @@ class RobotSettings:
     watchdog_s: float = 0.15              #: no command for this long (wall time): the watchdog stops the robot (s)
     deadline_s: float = 0.02              #: the planner's deadline after each tick (s): half a 25 Hz period
     workspace_margin: float = 0.25        #: the default workspace around start and goal (m)
+    reach_margin: float = 0.02            #: the planner keeps the pusher this far inside the arm's reach (m)
+    object_overhang: float = 0.03         #: ... and the object's footprint within this beyond it (m)
     place_task: bool = True               #: the simulated robot: place the table frame for the task
 
     def __post_init__(self) -> None:
         for name in ("frame_timeout_s", "watchdog_s", "deadline_s"):
             check_positive(name, getattr(self, name))
         check_nonnegative("workspace_margin", self.workspace_margin, "m")
+        check_nonnegative("reach_margin", self.reach_margin, "m")
+        check_nonnegative("object_overhang", self.object_overhang, "m")
 
 
 def task_workspace(points: object, margin: float) -> tuple[float, float, float, float]:
@@ -87,7 +95,7 @@ class Guarded(Method):
 def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unknown", method: str | Method = "mppi-ukf",
                       seed: int = 0, settings: ControllerSettings | None = None, sensor: Any = None,
                       robot: RobotSettings | None = None, address: str | None = None, sim: Any = None,
-                      max_steps: int = 600, progress: bool = False, on_step: Any = None) -> tuple[Episode, dict]:
+                      max_steps: int = MAX_STEPS, progress: bool = False, on_step: Any = None) -> tuple[Episode, dict]:
     """One episode of ``task`` with ``shape`` on a Franka, and what the robot side saw.
 
     Args:
@@ -113,18 +121,16 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
     robot = robot or RobotSettings()
     settings = settings or ControllerSettings()
     method = get_method(method)
-    problem = task.problem(shape, settings.weights, seed=seed)
-    if problem.polygons or problem.workspace is not None:
-        raise ValueError(f"task {task.key} has boxes, walls or a workspace bound; the robot's safety filter and "
-                         "simulated world take disc obstacles only (docs/workspaces.md)")
+    task_problem = task.problem(shape, settings.weights, seed=seed)
     pose, pusher = task.trial_start(shape, seed)
     if address is not None:           # a real object is where it is: the pusher starts where the task puts it
         pose, pusher = _start_at(np.asarray(sim.object_pose(), dtype=np.float64), pose, pusher)
-    goal = np.asarray(task.goal[:2], dtype=np.float64)
-    safety = robot.safety
-    if safety.workspace is None:
-        safety = replace(safety, workspace=task_workspace([pose[:2], pusher, goal], robot.workspace_margin))
+    goal = np.asarray(task_problem.goal[:2], dtype=np.float64)
     driver_settings = robot.driver.facing(pose[:2], goal) if robot.place_task and address is None else robot.driver
+    area, reach = robot_area(task_problem, robot, driver_settings, [pose[:2], pusher, goal], (pose[:2] + goal) / 2)
+    problem = robot_problem(task_problem, area, reach)
+    pusher = reachable_pusher_start(shape, pose, pusher, reach)
+    safety = replace(robot.safety, workspace=area)
     if safety.reach is None:
         safety = replace(safety, reach=driver_settings.reach_in_table())
     T = settings.mppi.control_period
@@ -133,7 +139,7 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
             from dexpush.robot.franka_sim import FrankaSim, SimSettings
 
             sim_settings = replace(sim or SimSettings(), driver=driver_settings)
-            world = stack.enter_context(FrankaSim(shape, problem.obstacles, sim_settings))
+            world = stack.enter_context(FrankaSim(shape, problem.obstacles, sim_settings, problem.polygons))
             poses, address, realtime = world, world.address, False
         else:
             world, poses, realtime = None, sim, True
@@ -144,7 +150,8 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
 
         def make(controller: Any) -> GuardedController:
             g = GuardedController(controller, T, safety, problem.obstacles, shape.pusher_radius, guard,
-                                  position=lambda: driver.tip()[:2], frame_timeout_s=robot.frame_timeout_s)
+                                  position=lambda: driver.tip()[:2], frame_timeout_s=robot.frame_timeout_s,
+                                  polygons=problem.polygons)
             if on_step is not None:
                 g.on_act = lambda k: on_step(k, plant, world, g)
             return g
@@ -157,8 +164,69 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
         condition = Condition(task.key, shape.name, params if isinstance(params, str) else "custom", method.name)
         episode = make_episode(problem, condition, result, 1, plant="franka-sim" if world is not None else "franka",
                                sensor=sensor, control_period=T, method=method)
-        report = robot_report(episode, plant, guarded.last, world, T, safety)
+        report = robot_report(episode, plant, guarded.last, world, T, safety, shape.pusher_radius)
     return episode, report
+
+
+def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, points: object,
+               middle: object) -> tuple[tuple, tuple]:
+    """Where the object and the pusher may go on the robot, and where the pusher alone may go (each its corners,
+    table frame). Both: the task's workspace (or, without one, the box round ``points`` grown by
+    ``robot.workspace_margin``) within ``robot.safety``'s workspace where one is given, and within
+    ``robot.object_overhang`` beyond the arm's reach (an object the pusher cannot get behind cannot be pushed
+    back). The pusher: that within the reach, ``robot.reach_margin`` inside it
+    (:meth:`DriverSettings.reach_halfplanes`, on the side of the inner circle where ``middle``, the middle of
+    start and goal, lies)."""
+    area = np.asarray(problem.workspace if problem.workspace is not None
+                      else _box_corners(task_workspace(points, robot.workspace_margin)))
+    if robot.safety.workspace is not None:
+        area = clip_convex(area, robot.safety.workspace_rows)
+    for sides in (16, 12, 8):                 # the reach's polygon with as many sides as a workspace may have
+        reach = clip_convex(area, driver.reach_halfplanes(middle, robot.reach_margin, sides))
+        held = clip_convex(area, driver.reach_halfplanes(middle, -robot.object_overhang, sides))
+        if max(len(reach), len(held)) <= MAX_POLYGON_CORNERS:
+            break
+    area = held
+    if len(area) < 3 or len(reach) < 3:
+        raise ValueError("the task lies outside the arm's reach and the workspace: nothing is left to push in "
+                         "(move the task or the table frame)")
+    return tuple(map(tuple, area.tolist())), tuple(map(tuple, reach.tolist()))
+
+
+def robot_problem(problem: Problem, area: tuple, reach: tuple) -> Problem:
+    """``problem`` bounded by the robot's ``area`` and the pusher by ``reach`` (:func:`robot_area`). The
+    cost-to-go stays as the task has it: built for tasks with boxes, walls or a workspace of their own, not
+    for disc-only tasks, which keep the detour (docs/workspaces.md#global-guidance)."""
+    own = bool(problem.polygons or problem.workspace is not None)
+    weights = problem.weights if own else replace(problem.weights, guidance=False)
+    return replace(problem, weights=weights, workspace=area, pusher_workspace=reach)
+
+
+def reachable_pusher_start(shape: Shape, pose: np.ndarray, pusher: np.ndarray, reach: tuple) -> np.ndarray:
+    """The task's pusher start when the pusher disc lies inside ``reach`` (corners); otherwise the same distance
+    outside the object's inflated contour at the azimuth nearest the task's that does (scanned in 1° steps)."""
+    rows = workspace_halfplanes(reach)
+
+    def gap(p: np.ndarray) -> float:
+        return float(np.min(rows[:, 2] - rows[:, :2] @ p)) - shape.pusher_radius
+
+    if gap(pusher) >= 0:
+        return pusher
+    local = rotate(np.asarray(pusher, dtype=np.float64) - pose[:2], -pose[2])
+    phi0 = float(np.arctan2(local[1], local[0]))
+    clearance = float(np.linalg.norm(local) - np.linalg.norm(shape.contour(np.array(phi0))[0]))
+    for step in np.radians(np.arange(1, 181)):
+        for phi in (phi0 + step, phi0 - step):
+            r = np.asarray(shape.contour(np.array(phi))[0], dtype=np.float64)
+            p = pose[:2] + rotate(r * (1.0 + clearance / np.linalg.norm(r)), pose[2])
+            if gap(p) >= 0:
+                return p
+    return pusher
+
+
+def _box_corners(box: tuple[float, float, float, float]) -> np.ndarray:
+    x0, y0, x1, y1 = box
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
 
 
 def _start_at(pose: np.ndarray, task_pose: np.ndarray, task_pusher: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -177,13 +245,13 @@ def tracking_error(states: np.ndarray, commands: np.ndarray, control_period: flo
 
 
 def robot_report(episode: Episode, plant: RobotPlant, guarded: GuardedController | None, world: Any,
-                 control_period: float, safety: SafetySettings) -> dict:
+                 control_period: float, safety: SafetySettings, pusher_radius: float = 0.0) -> dict:
     """The robot side of a finished episode (see :func:`run_robot_episode`)."""
     states, commands = episode.states, episode.commands
     err = tracking_error(states, commands, control_period)
     tips = states[:, 3:5]
-    x0, y0, x1, y1 = safety.workspace
-    beyond = np.max(np.stack([x0 - tips[:, 0], tips[:, 0] - x1, y0 - tips[:, 1], tips[:, 1] - y1]), 0)
+    rows = safety.workspace_rows        # the pusher disc beyond the workspace's edges (m)
+    beyond = np.max(tips @ rows[:, :2].T - rows[:, 2] + pusher_radius, 1) if len(rows) else np.zeros(len(tips))
     speed = np.linalg.norm(commands, axis=1) if len(commands) else np.zeros(1)
     out = {"late_steps": plant.late_steps, "watchdog_stops": plant.watchdog_stops,
            "tracking_error_mm_median": round(float(np.median(err)) * 1e3, 3) if len(err) else None,

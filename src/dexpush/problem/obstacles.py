@@ -214,7 +214,8 @@ def _max(a: jnp.ndarray | None, b: jnp.ndarray) -> jnp.ndarray:
 
 def bound_gaps(x: State, scene: Scene):
     """Per workspace half-plane n·p ≤ o, the gaps (m) of the footprint (the least o − n·v over its outline's
-    corners v) and of the pusher: (footprint gap, pusher gap), each (...,)."""
+    corners v) and of the pusher: (footprint gap, pusher gap), each (...,); then per half-plane of the
+    pusher's own bounds, (+inf, pusher gap)."""
     xb, yb, th, xc, yc = components(x)
     s, c = fastmath.sincos(th)
     a = scene.edge_a
@@ -227,6 +228,10 @@ def bound_gaps(x: State, scene: Scene):
             reach = functools.reduce(jnp.maximum, [mx * a[e, 0] + my * a[e, 1] for e in range(a.shape[0])])
         base = o - nx * xb - ny * yb
         yield base - reach, o - nx * xc - ny * yc - scene.pusher_radius
+    for h in range(scene.pusher_bounds.shape[0]):                     # the pusher's own bounds: no footprint
+        nx, ny, o = scene.pusher_bounds[h, 0], scene.pusher_bounds[h, 1], scene.pusher_bounds[h, 2]
+        pusher = o - nx * xc - ny * yc - scene.pusher_radius
+        yield jnp.full_like(pusher, jnp.inf), pusher
 
 
 def region_gaps(x: State, scene: Scene):

@@ -18,8 +18,8 @@ import numpy as np
 from dexpush.common.checks import check_positive, checked_vector
 from dexpush.model.polygons import as_polygon, is_convex
 
-__all__ = ["MAX_POLYGON_CORNERS", "box", "convex_polygon", "halfplanes", "point_gap", "wall",
-           "workspace_halfplanes"]
+__all__ = ["MAX_POLYGON_CORNERS", "box", "clip_convex", "convex_polygon", "halfplanes", "nearest_on_outline",
+           "point_gap", "wall", "workspace_halfplanes"]
 
 #: the most corners an obstacle polygon or a workspace may have (each costs every rollout step a few
 #: multiply-adds per footprint corner)
@@ -89,13 +89,46 @@ def workspace_halfplanes(vertices: object) -> np.ndarray:
     return halfplanes(convex_polygon(vertices, "workspace"))
 
 
-def point_gap(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
-    """Signed distance (m) from points (..., 2) to a convex polygon: positive outside (exact), negative
-    inside (minus the distance to the nearest edge)."""
+def nearest_on_outline(points: np.ndarray, polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For points (..., 2) and a counter-clockwise convex polygon: the nearest point of its outline (..., 2)
+    and whether each point lies inside (...,)."""
     p = np.asarray(points, dtype=np.float64)[..., None, :]
     a = np.asarray(polygon, dtype=np.float64)
     e = np.roll(a, -1, axis=0) - a
     t = np.clip(np.sum((p - a) * e, -1) / np.sum(e * e, -1), 0.0, 1.0)
-    d = np.min(np.hypot(*np.moveaxis(p - a - t[..., None] * e, -1, 0)), -1)
+    q = a + t[..., None] * e                                     # the nearest point of each edge
+    k = np.argmin(np.sum((p - q) ** 2, -1), -1)
+    nearest = np.take_along_axis(q, k[..., None, None], -2)[..., 0, :]
     inside = np.all((e[:, 0] * (p[..., 1] - a[:, 1]) - e[:, 1] * (p[..., 0] - a[:, 0])) >= 0, -1)
+    return nearest, inside
+
+
+def point_gap(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """Signed distance (m) from points (..., 2) to a convex polygon: positive outside (exact), negative
+    inside (minus the distance to the nearest edge)."""
+    nearest, inside = nearest_on_outline(points, polygon)
+    d = np.hypot(*np.moveaxis(np.asarray(points, dtype=np.float64) - nearest, -1, 0))
     return np.where(inside, -d, d)
+
+
+def clip_convex(vertices: object, rows: object) -> np.ndarray:
+    """The corners (n, 2) of the convex polygon ``vertices`` cut by the half-planes ``rows`` [n_x, n_y, o]
+    (n·p ≤ o kept), counter-clockwise, corners closer than 0.1 mm to the next merged; (0, 2) when nothing is
+    left (Sutherland–Hodgman, one half-plane at a time)."""
+    poly = np.asarray(vertices, dtype=np.float64).reshape(-1, 2)
+    for nx, ny, o in np.asarray(rows, dtype=np.float64).reshape(-1, 3):
+        if len(poly) == 0:
+            break
+        side = poly @ (nx, ny) - o                          # > 0: outside
+        nxt, side_nxt = np.roll(poly, -1, axis=0), np.roll(side, -1)
+        out = []
+        for p, q, a, b in zip(poly, nxt, side, side_nxt):
+            if a <= 0:
+                out.append(p)
+            if (a < 0 < b) or (b < 0 < a):                   # the edge crosses the line: keep the crossing
+                out.append(p + (q - p) * (a / (a - b)))
+        poly = np.asarray(out, dtype=np.float64).reshape(-1, 2)
+    if len(poly):
+        keep = np.hypot(*(np.roll(poly, -1, axis=0) - poly).T) >= 1e-4
+        poly = poly[keep]
+    return poly if len(poly) >= 3 else np.zeros((0, 2))

@@ -84,11 +84,18 @@ class SimReport:
     step_capacity: float
 
 
-def _world_xml(shape: Shape, physics: PhysicsSettings, obstacles: np.ndarray) -> str:
-    """The physics plant's scene with the obstacles drawn (no collisions: a touch is judged from the true state)."""
-    discs = "".join(f'<geom type="cylinder" size="{r:.6f} 0.03" pos="{x:.6f} {y:.6f} 0.03" contype="0" '
-                    f'conaffinity="0" rgba="0.8 0.3 0.3 0.6"/>' for x, y, r in obstacles)
-    return scene_xml(shape, physics, SceneExtras(world=discs))
+def _world_xml(shape: Shape, physics: PhysicsSettings, obstacles: np.ndarray,
+               polygons: tuple[np.ndarray, ...] = ()) -> str:
+    """The physics plant's scene with the obstacles drawn: discs as cylinders, polygons (boxes, walls) as
+    prisms 6 cm high (no collisions: a touch is judged from the true state)."""
+    look = 'contype="0" conaffinity="0" rgba="0.8 0.3 0.3 0.6"'
+    discs = "".join(f'<geom type="cylinder" size="{r:.6f} 0.03" pos="{x:.6f} {y:.6f} 0.03" {look}/>'
+                    for x, y, r in obstacles)
+    meshes = "".join(f'<mesh name="keep_out_{i}" vertex="'
+                     + " ".join(f"{x:.6f} {y:.6f} {z}" for z in (0, 0.06) for x, y in p) + '"/>'
+                     for i, p in enumerate(polygons))
+    prisms = "".join(f'<geom type="mesh" mesh="keep_out_{i}" {look}/>' for i in range(len(polygons)))
+    return scene_xml(shape, physics, SceneExtras(asset=meshes, world=discs + prisms))
 
 
 class FrankaSim:
@@ -101,9 +108,11 @@ class FrankaSim:
         shape: the object.
         obstacles: discs (c_x, c_y, r) in the table frame (m), drawn in the scene.
         settings: :class:`SimSettings`.
+        polygons: convex polygons (boxes, walls; each its corners) in the table frame (m), drawn likewise.
     """
 
-    def __init__(self, shape: Shape, obstacles: object = (), settings: SimSettings | None = None) -> None:
+    def __init__(self, shape: Shape, obstacles: object = (), settings: SimSettings | None = None,
+                 polygons: object = ()) -> None:
         try:
             import franky_sim  # noqa: F401
         except ImportError as exc:
@@ -112,7 +121,8 @@ class FrankaSim:
         self.settings = settings or SimSettings()
         obs = np.asarray(obstacles, dtype=np.float64).reshape(-1, 3)
         base_obs = np.concatenate([self.settings.driver.to_base(obs[:, :2]), obs[:, 2:]], 1) if len(obs) else obs
-        self._xml = _world_xml(shape, self.settings.physics, base_obs)
+        base_polys = tuple(self.settings.driver.to_base(np.asarray(p, dtype=np.float64)) for p in polygons)
+        self._xml = _world_xml(shape, self.settings.physics, base_obs, base_polys)
         ctx = mp.get_context("spawn")
         self._shared = ctx.Array("d", _SIZE, lock=False)
         self._conn, child = ctx.Pipe()

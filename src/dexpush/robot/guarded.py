@@ -14,6 +14,7 @@ import numpy as np
 from dexpush.common.checks import check_positive
 from dexpush.common.interfaces import Controller, Observation
 from dexpush.common.se2 import wrap_angle
+from dexpush.problem.regions import convex_polygon
 from dexpush.robot.safety import SafetySettings, safe_velocity
 
 __all__ = ["FrameGuard", "GuardedController"]
@@ -72,6 +73,7 @@ class GuardedController:
         safety: :class:`dexpush.robot.safety.SafetySettings`.
         obstacles: discs (c_x, c_y, r) the pusher keeps out of (grown by the pusher radius and the margin).
         pusher_radius: ρ (m).
+        polygons: convex polygons (boxes, walls; each its corners) the pusher keeps out of, grown likewise.
         guard: a :class:`FrameGuard` (None: frames pass as they come).
         position: where the pusher is now (a robot's measured tip); default: the newest frame's
             pusher position, carried forward by the commands sent since.
@@ -85,12 +87,14 @@ class GuardedController:
 
     def __init__(self, controller: Controller, control_period: float, safety: SafetySettings | None = None,
                  obstacles: object = (), pusher_radius: float = 0.0, guard: FrameGuard | None = None,
-                 position: Callable[[], np.ndarray] | None = None, frame_timeout_s: float = 0.5) -> None:
+                 position: Callable[[], np.ndarray] | None = None, frame_timeout_s: float = 0.5,
+                 polygons: object = ()) -> None:
         self.controller = controller
         self.control_period = check_positive("control_period", control_period, "s")
         self.safety = safety or SafetySettings()
         self.obstacles = np.asarray(obstacles, dtype=np.float64).reshape(-1, 3)
         self.pusher_radius = float(pusher_radius)
+        self.polygons = tuple(convex_polygon(p, f"keep-out polygon {i}") for i, p in enumerate(polygons))
         self.guard = guard
         self._position = position
         self.frame_timeout_s = check_positive("frame_timeout_s", frame_timeout_s, "s")
@@ -139,7 +143,7 @@ class GuardedController:
             self._v = np.zeros(2)
         else:
             result = safe_velocity(u, p, self._v, self.control_period, self.safety, self.obstacles,
-                                   self.pusher_radius)
+                                   self.pusher_radius, self.polygons)
             self.filtered += result.changed
             if result.changed:
                 for name in result.active:

@@ -9,10 +9,12 @@ where the rows of ``A v ≤ b`` are linear in v (docs/robot.md#the-safety-filter
 
 * **speed** |v| ≤ v_max, as the regular 16-gon inscribed in that disc;
 * **acceleration** |v − v_prev| ≤ a_max·T, the inscribed 16-gon around the previous command;
-* **workspace** (a box the pusher centre must stay in), the arm's **reach** (an annulus about the
+* **workspace** (a convex polygon, e.g. the table's rectangle, that the pusher disc must stay in:
+  each edge n·p ≤ o a row with d = o − n·p − ρ), the arm's **reach** (an annulus about the
   robot's base: beyond r_max the arm stretches to its joint limits, within r_min it folds to
-  them) and **keep-out discs** (obstacles grown by the pusher radius and a margin), each as a
-  discrete-time barrier on the signed distance d to the boundary along its outward normal n:
+  them), **keep-out discs** and **keep-out polygons** (obstacles, boxes and walls, grown by the pusher
+  radius ρ and a margin; a polygon's normal n points from its nearest point to the pusher), each as
+  a discrete-time barrier on the signed distance d to the boundary along its outward normal n:
   d(t+T) ≥ (1 − γ)·d(t), linearised as
 
       n·v ≥ −γ·d / T                                                               (barrier)
@@ -35,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive
+from dexpush.problem.regions import convex_polygon, nearest_on_outline, workspace_halfplanes
 
 __all__ = ["FilterResult", "SafetySettings", "safe_velocity"]
 
@@ -53,23 +56,33 @@ class SafetySettings:
 
     v_max: float = 0.15                   #: speed limit of the pusher (m/s); the planner's v_max is below it
     a_max: float = 2.5                    #: change of the command per second (m/s²)
-    #: the pusher centre's workspace (x_min, y_min, x_max, y_max) in m, or None for no bounds
-    workspace: tuple[float, float, float, float] | None = None
+    #: the workspace the pusher disc stays in: a rectangle (x_min, y_min, x_max, y_max) or a convex polygon's
+    #: corners ((x, y), ...), in m; None for no bounds
+    workspace: tuple | None = None
     #: the arm's reach (base_x, base_y, r_min, r_max): the tip stays between r_min and r_max (m) from the
     #: base's vertical axis at (base_x, base_y) in the table frame; None: no such limit
     reach: tuple[float, float, float, float] | None = None
     keep_out_margin: float = 0.005        #: keep-out discs are obstacles grown by the pusher radius and this (m)
     braking_s: float = 0.3                #: the barrier's time constant: γ = T / braking_s (at most 1)
 
+    @property
+    def workspace_rows(self) -> np.ndarray:
+        """The workspace as half-plane rows [n_x, n_y, o] (n·p ≤ o inside; (0, 3) without one)."""
+        return np.zeros((0, 3)) if self.workspace is None else workspace_halfplanes(self.workspace)
+
     def __post_init__(self) -> None:
         for name in ("v_max", "a_max", "braking_s"):
             check_positive(name, getattr(self, name))
         check_nonnegative("keep_out_margin", self.keep_out_margin, "m")
         if self.workspace is not None:
-            w = tuple(float(x) for x in self.workspace)
-            if len(w) != 4 or not all(np.isfinite(w)) or not (w[0] < w[2] and w[1] < w[3]):
-                raise ValueError(f"workspace is (x_min, y_min, x_max, y_max) in m with min < max, got "
-                                 f"{self.workspace!r}")
+            w = np.asarray(self.workspace, dtype=object)
+            if w.shape == (4,):
+                w = tuple(float(x) for x in self.workspace)
+                if not all(np.isfinite(w)) or not (w[0] < w[2] and w[1] < w[3]):
+                    raise ValueError(f"workspace is (x_min, y_min, x_max, y_max) in m with min < max, got "
+                                     f"{self.workspace!r}")
+            else:
+                w = tuple((float(x), float(y)) for x, y in convex_polygon(self.workspace, "the filter's workspace"))
             object.__setattr__(self, "workspace", w)
         if self.reach is not None:
             r = tuple(float(x) for x in self.reach)
@@ -91,17 +104,16 @@ class FilterResult:
     relaxed: str
 
 
-def _rows(p: np.ndarray, v_prev: np.ndarray, obstacles: np.ndarray, radius: float, T: float,
-          s: SafetySettings) -> list[tuple[str, np.ndarray, np.ndarray]]:
+def _rows(p: np.ndarray, v_prev: np.ndarray, obstacles: np.ndarray, polygons: tuple[np.ndarray, ...], radius: float,
+          T: float, s: SafetySettings) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """The constraint groups (name, A, b) of A v ≤ b."""
     gamma = min(1.0, T / s.braking_s)
     groups = [("speed", _NORMALS, np.full(_SIDES, s.v_max * _COS)),
               ("acceleration", _NORMALS, _NORMALS @ v_prev + s.a_max * T * _COS)]
     if s.workspace is not None:
-        x0, y0, x1, y1 = s.workspace
-        out = np.array([[-1.0, 0.0], [0.0, -1.0], [1.0, 0.0], [0.0, 1.0]])   # outward normals
-        d = np.array([p[0] - x0, p[1] - y0, x1 - p[0], y1 - p[1]])           # distances inside
-        groups.append(("workspace", out, gamma * d / T))                      # out·v ≤ γ d / T
+        rows = s.workspace_rows
+        d = rows[:, 2] - rows[:, :2] @ p - radius                             # the pusher disc's gap inside
+        groups.append(("workspace", rows[:, :2], gamma * d / T))              # n·v ≤ γ d / T
     if s.reach is not None:
         bx, by, r_min, r_max = s.reach
         delta = p - (bx, by)
@@ -114,7 +126,19 @@ def _rows(p: np.ndarray, v_prev: np.ndarray, obstacles: np.ndarray, radius: floa
         dist = np.linalg.norm(delta, axis=1)
         n = np.where(dist[:, None] > 1e-9, delta / np.maximum(dist, 1e-9)[:, None], np.array([1.0, 0.0]))
         groups.append(("keep-out", -n, gamma * (dist - r) / T))               # −n·v ≤ γ d / T
-    return groups
+    if polygons:
+        near, inside = (np.array(v) for v in zip(*(nearest_on_outline(p, poly) for poly in polygons)))
+        delta = p[None] - near
+        dist = np.linalg.norm(delta, axis=1)
+        n = np.where(dist[:, None] > 1e-9, delta / np.maximum(dist, 1e-9)[:, None], np.array([1.0, 0.0]))
+        n = np.where(inside[:, None], -n, n)                                  # from inside: outward is away
+        gap = np.where(inside, -dist, dist) - radius - s.keep_out_margin
+        groups.append(("keep-out", -n, gamma * gap / T))
+    merged: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for name, A, b in groups:                                                 # discs' and polygons' rows: one group
+        A0, b0 = merged.get(name, (np.zeros((0, 2)), np.zeros(0)))
+        merged[name] = (np.concatenate([A0, A]), np.concatenate([b0, b]))
+    return [(name, A, b) for name, (A, b) in merged.items()]
 
 
 def _project(u: np.ndarray, A: np.ndarray, b: np.ndarray, tol: float = 1e-12) -> np.ndarray | None:
@@ -139,7 +163,8 @@ def _project(u: np.ndarray, A: np.ndarray, b: np.ndarray, tol: float = 1e-12) ->
 
 
 def safe_velocity(u: object, pusher_xy: object, v_prev: object, control_period: float,
-                  settings: SafetySettings, obstacles: object = (), pusher_radius: float = 0.0) -> FilterResult:
+                  settings: SafetySettings, obstacles: object = (), pusher_radius: float = 0.0,
+                  polygons: object = ()) -> FilterResult:
     """The closest velocity to ``u`` that keeps the pusher safe for the next ``control_period`` (QP above).
 
     Args:
@@ -149,7 +174,8 @@ def safe_velocity(u: object, pusher_xy: object, v_prev: object, control_period: 
         control_period: T, how long the command is held (s).
         settings: :class:`SafetySettings`.
         obstacles: discs (c_x, c_y, radius), (m, 3), in m; grown by ``pusher_radius`` and the margin.
-        pusher_radius: ρ (m).
+        pusher_radius: ρ (m): the pusher disc stays inside the workspace and out of the keep-out zones.
+        polygons: convex keep-out polygons (boxes, walls), each its corners (k, 2) in m; grown likewise.
     """
     u = np.asarray(u, dtype=np.float64).reshape(2)
     if not np.all(np.isfinite(u)):
@@ -158,7 +184,8 @@ def safe_velocity(u: object, pusher_xy: object, v_prev: object, control_period: 
     vp = np.asarray(v_prev, dtype=np.float64).reshape(2)
     T = check_positive("control_period", control_period, "s")
     obs = np.asarray(obstacles, dtype=np.float64).reshape(-1, 3)
-    groups = _rows(p, vp, obs, float(pusher_radius), T, settings)
+    polys = tuple(convex_polygon(q, "keep-out polygon") for q in polygons)
+    groups = _rows(p, vp, obs, polys, float(pusher_radius), T, settings)
     by_name = {name: (A, b) for name, A, b in groups}
     tiers = [("", [g[0] for g in groups]),
              ("acceleration", [g[0] for g in groups if g[0] != "acceleration"]),

@@ -24,7 +24,7 @@ else; this module never imports ``rclpy``, so its rules are tested in the base s
   ``watchdog_s`` (the planner hung or missed its deadline).
 
 Every command passes the robot's guards (:class:`dexpush.robot.guarded.GuardedController`): the
-frame guard, the safety filter (speed, acceleration, workspace, keep-out discs) and, with no frame
+frame guard, the safety filter (speed, acceleration, workspace, keep-out discs and polygons) and, with no frame
 for ``frame_timeout_s``, a stop.
 """
 
@@ -278,18 +278,16 @@ class NodeCore:
         guard = None if self.node.guard is None else replace(self.node.guard)
         self.controller = GuardedController(inner, self.T, self._safety(problem), problem.obstacles,
                                             self.shape.pusher_radius, guard, position=self._newest_pusher,
-                                            frame_timeout_s=self.node.frame_timeout_s)
+                                            frame_timeout_s=self.node.frame_timeout_s, polygons=problem.polygons)
         self.problem, self._started, self._reached, self._k = problem, False, False, 0
         self.error = np.full(2, np.nan)
 
     def _safety(self, problem: Problem) -> SafetySettings:
-        """The filter's settings with the workspace's bounding box (shrunk by the pusher) when it has none."""
+        """The filter's settings with the problem's workspace when they have none (the filter keeps the pusher
+        disc inside it)."""
         s = self.node.safety
         if s.workspace is None and problem.workspace is not None:
-            c = np.asarray(problem.workspace)
-            r = self.shape.pusher_radius
-            lo, hi = c.min(0) + r, c.max(0) - r
-            s = replace(s, workspace=(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])))
+            s = replace(s, workspace=problem.workspace)
         return s
 
     def tick(self) -> Tick:
