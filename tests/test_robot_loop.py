@@ -173,9 +173,9 @@ def test_bad_driver_settings_are_refused(bad: dict) -> None:
 @pytest.mark.parametrize("key", ["I", "II", "III", "IV"])
 @pytest.mark.parametrize("shape_name", ["rect", "tee", "ellipse"])
 def test_every_task_fits_the_arm_and_starts_within_its_reach(key: str, shape_name: str) -> None:
-    """On the robot the planner knows the arm: the object and the pusher stay in the task's area (within the
-    object's overhang of the reach), the pusher within the reach; each start fits, its pusher moved round the
-    object when the task's azimuth is out of reach."""
+    """On the robot the planner knows the arm: the object and the pusher stay in the task's area, the object
+    where the pusher can get round it, the pusher within the reach; each start fits, its pusher moved round
+    the object when the task's azimuth is out of reach."""
     from dexpush.experiments.registry import make_shape
     from dexpush.experiments.robot_trial import RobotSettings, reachable_pusher_start, robot_area, robot_problem
     from dexpush.experiments.scenarios import get_task
@@ -187,7 +187,7 @@ def test_every_task_fits_the_arm_and_starts_within_its_reach(key: str, shape_nam
         pose, pusher = task.trial_start(shape, seed)
         goal = np.asarray(problem.goal[:2])
         driver = robot.driver.facing(pose[:2], goal)
-        area, reach = robot_area(problem, robot, driver, [pose[:2], pusher, goal], (pose[:2] + goal) / 2)
+        area, reach = robot_area(problem, robot, driver, pose, pusher)
         bounded = robot_problem(problem, area, reach)
         start = reachable_pusher_start(shape, pose, pusher, reach)
         bounded.check_start(pose, start)                  # raises when the start touches or leaves the area
@@ -196,7 +196,7 @@ def test_every_task_fits_the_arm_and_starts_within_its_reach(key: str, shape_nam
         r = np.linalg.norm(base, axis=1)
         r_min, r_max = driver.reach
         assert np.all(r <= r_max - robot.reach_margin + 1e-9) and np.all(r >= r_min + robot.reach_margin - 1e-9)
-        assert (bounded.guide is None) == (not problem.polygons and problem.workspace is None)
+        assert (bounded.guide is None) == (problem.guide is None)
 
 
 def test_a_task_out_of_reach_is_refused_in_one_line() -> None:
@@ -207,4 +207,4 @@ def test_a_task_out_of_reach_is_refused_in_one_line() -> None:
     task, shape = get_task("I"), make_shape("rect")
     far = DriverSettings(table_origin=(3.0, 0.0))
     with pytest.raises(ValueError, match="reach"):
-        robot_area(task.problem(shape), RobotSettings(), far, [(0.0, 0.0), (0.6, 0.3)], (0.3, 0.15))
+        robot_area(task.problem(shape), RobotSettings(), far, (0.0, 0.0, 0.0), (-0.15, 0.0))

@@ -128,22 +128,26 @@ def test_clipping_keeps_exactly_the_points_inside_both(seed: int, cuts: int) -> 
     assert not np.any((both < -1e-6) & (clip > 1e-6)) and not np.any((clip < -1e-6) & (both > 1e-6))
 
 
-def test_the_pusher_workspace_bounds_the_pusher_alone() -> None:
-    """A pusher-only bound (a robot's reach) charges the pusher's leaving it, not the footprint's; the judge
-    leaves it out; without one the scene is what it was."""
+def test_the_object_and_pusher_workspaces_bound_each_alone() -> None:
+    """An object-only bound charges the footprint's leaving it, not the pusher's, a pusher-only bound (a robot's
+    reach) the reverse; the judge leaves both out; without them the scene is what it was."""
     from dexpush.problem.cost import obstacle_cost
     w = CostWeights(guidance=False)
+    inner = (-0.3, -0.3, 0.3, 0.3)
     free = Problem(RECT, (0.0, 0.0, 0.0), workspace=(-1.0, -1.0, 1.0, 1.0), weights=w)
-    held = Problem(RECT, (0.0, 0.0, 0.0), workspace=(-1.0, -1.0, 1.0, 1.0), weights=w,
-                   pusher_workspace=(-0.3, -0.3, 0.3, 0.3))
-    assert free.scene.pusher_bounds.shape[0] == 0 and held.scene.pusher_bounds.shape[0] == 4
+    obj = Problem(RECT, (0.0, 0.0, 0.0), workspace=(-1.0, -1.0, 1.0, 1.0), weights=w, object_workspace=inner)
+    push = Problem(RECT, (0.0, 0.0, 0.0), workspace=(-1.0, -1.0, 1.0, 1.0), weights=w, pusher_workspace=inner)
+    assert free.scene.object_bounds.shape[0] == free.scene.pusher_bounds.shape[0] == 0
+    assert obj.scene.object_bounds.shape[0] == push.scene.pusher_bounds.shape[0] == 4
     object_out = np.array([[0.35, 0.0, 0.0, 0.0, 0.2]])      # the footprint past x = 0.3, the pusher inside
-    pusher_out = np.array([[0.0, 0.0, 0.0, 0.35, 0.0]])      # the pusher past x = 0.3
+    pusher_out = np.array([[0.0, 0.0, 0.0, 0.35, 0.0]])      # the pusher past x = 0.3, the footprint inside
     cost = lambda p, x: float(np.asarray(obstacle_cost(x, p.scene, w))[0])   # noqa: E731
-    assert cost(held, object_out) == cost(free, object_out) == 0.0
-    assert cost(held, pusher_out) >= w.C_pen > cost(free, pusher_out)
-    assert not held.collides(pusher_out)[0]                  # leaving the reach is not a touch
-    assert set(held.with_weights(w).pusher_workspace) == set(held.pusher_workspace)
+    assert cost(free, object_out) == cost(free, pusher_out) == 0.0
+    assert cost(obj, object_out) >= w.C_pen and cost(obj, pusher_out) == 0.0
+    assert cost(push, pusher_out) >= w.C_pen and cost(push, object_out) == 0.0
+    assert not obj.collides(object_out)[0] and not push.collides(pusher_out)[0]     # no touch
+    assert set(obj.with_weights(w).object_workspace) == set(obj.object_workspace)
+    assert set(push.with_weights(w).pusher_workspace) == set(push.pusher_workspace)
 
 
 # ---------------------------------------------------------------- guidance

@@ -53,7 +53,7 @@ class RobotSettings:
     deadline_s: float = 0.02              #: the planner's deadline after each tick (s): half a 25 Hz period
     workspace_margin: float = 0.25        #: the default workspace around start and goal (m)
     reach_margin: float = 0.02            #: the planner keeps the pusher this far inside the arm's reach (m)
-    object_overhang: float = 0.03         #: ... and the object's footprint within this beyond it (m)
+    object_room: float = 0.01             #: ... and the object's footprint a pusher's width and this further (m)
     place_task: bool = True               #: the simulated robot: place the table frame for the task
 
     def __post_init__(self) -> None:
@@ -61,7 +61,7 @@ class RobotSettings:
             check_positive(name, getattr(self, name))
         check_nonnegative("workspace_margin", self.workspace_margin, "m")
         check_nonnegative("reach_margin", self.reach_margin, "m")
-        check_nonnegative("object_overhang", self.object_overhang, "m")
+        check_nonnegative("object_room", self.object_room, "m")
 
 
 def task_workspace(points: object, margin: float) -> tuple[float, float, float, float]:
@@ -127,10 +127,10 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
         pose, pusher = _start_at(np.asarray(sim.object_pose(), dtype=np.float64), pose, pusher)
     goal = np.asarray(task_problem.goal[:2], dtype=np.float64)
     driver_settings = robot.driver.facing(pose[:2], goal) if robot.place_task and address is None else robot.driver
-    area, reach = robot_area(task_problem, robot, driver_settings, [pose[:2], pusher, goal], (pose[:2] + goal) / 2)
+    area, reach = robot_area(task_problem, robot, driver_settings, pose, pusher)
     problem = robot_problem(task_problem, area, reach)
     pusher = reachable_pusher_start(shape, pose, pusher, reach)
-    safety = replace(robot.safety, workspace=area)
+    safety = replace(robot.safety, workspace=reach)
     if safety.reach is None:
         safety = replace(safety, reach=driver_settings.reach_in_table())
     T = settings.mppi.control_period
@@ -168,38 +168,48 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
     return episode, report
 
 
-def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, points: object,
-               middle: object) -> tuple[tuple, tuple]:
-    """Where the object and the pusher may go on the robot, and where the pusher alone may go (each its corners,
-    table frame). Both: the task's workspace (or, without one, the box round ``points`` grown by
-    ``robot.workspace_margin``) within ``robot.safety``'s workspace where one is given, and within
-    ``robot.object_overhang`` beyond the arm's reach (an object the pusher cannot get behind cannot be pushed
-    back). The pusher: that within the reach, ``robot.reach_margin`` inside it
-    (:meth:`DriverSettings.reach_halfplanes`, on the side of the inner circle where ``middle``, the middle of
-    start and goal, lies)."""
+def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object,
+               pusher: object) -> tuple[tuple, tuple]:
+    """Where the object may go on the robot, and where the pusher may go (each its corners, table frame), for an
+    episode that starts with the object at ``pose`` and the pusher at ``pusher``.
+
+    The area: the task's workspace (or, without one, the box round start, pusher and goal grown by
+    ``robot.workspace_margin``), within ``robot.safety``'s workspace where one is given. The pusher's: that
+    within the arm's reach, ``robot.reach_margin`` inside it (:meth:`DriverSettings.reach_halfplanes`, on the
+    side of the inner circle where the middle of start and goal lies). The object's footprint stays a
+    pusher's width and ``robot.object_room`` further inside, where the pusher can get round it (an object
+    pushed where the pusher cannot follow cannot be pushed back), each line eased only as far as the start's
+    and the goal's footprints need.
+    """
+    pose = np.asarray(pose, dtype=np.float64)
+    goal = np.asarray(problem.goal, dtype=np.float64)
+    points = [pose[:2], np.asarray(pusher, dtype=np.float64), goal[:2]]
     area = np.asarray(problem.workspace if problem.workspace is not None
                       else _box_corners(task_workspace(points, robot.workspace_margin)))
     if robot.safety.workspace is not None:
         area = clip_convex(area, robot.safety.workspace_rows)
+    middle = (pose[:2] + goal[:2]) / 2
+    ends = np.concatenate([*problem.shape.footprint_world(pose), *problem.shape.footprint_world(goal)])
+    inset = robot.reach_margin + 2 * problem.shape.pusher_radius + robot.object_room
     for sides in (16, 12, 8):                 # the reach's polygon with as many sides as a workspace may have
-        reach = clip_convex(area, driver.reach_halfplanes(middle, robot.reach_margin, sides))
-        held = clip_convex(area, driver.reach_halfplanes(middle, -robot.object_overhang, sides))
+        rows = driver.reach_halfplanes(middle, robot.reach_margin, sides)
+        reach = clip_convex(area, rows)
+        held = driver.reach_halfplanes(middle, inset, sides)
+        held[:, 2] = np.maximum(held[:, 2], np.max(ends @ held[:, :2].T, 0) + 0.005)
+        held = clip_convex(area, held)
         if max(len(reach), len(held)) <= MAX_POLYGON_CORNERS:
             break
-    area = held
-    if len(area) < 3 or len(reach) < 3:
+    if len(held) < 3 or len(reach) < 3:
         raise ValueError("the task lies outside the arm's reach and the workspace: nothing is left to push in "
                          "(move the task or the table frame)")
-    return tuple(map(tuple, area.tolist())), tuple(map(tuple, reach.tolist()))
+    return tuple(map(tuple, held.tolist())), tuple(map(tuple, reach.tolist()))
 
 
 def robot_problem(problem: Problem, area: tuple, reach: tuple) -> Problem:
-    """``problem`` bounded by the robot's ``area`` and the pusher by ``reach`` (:func:`robot_area`). The
-    cost-to-go stays as the task has it: built for tasks with boxes, walls or a workspace of their own, not
-    for disc-only tasks, which keep the detour (docs/workspaces.md#global-guidance)."""
-    own = bool(problem.polygons or problem.workspace is not None)
-    weights = problem.weights if own else replace(problem.weights, guidance=False)
-    return replace(problem, weights=weights, workspace=area, pusher_workspace=reach)
+    """``problem`` with the object within ``area`` and the pusher within ``reach`` (:func:`robot_area`), both
+    within the task's own workspace where it has one. Neither bound builds a cost-to-go: a task keeps the
+    guidance it has (docs/workspaces.md#global-guidance)."""
+    return replace(problem, object_workspace=area, pusher_workspace=reach)
 
 
 def reachable_pusher_start(shape: Shape, pose: np.ndarray, pusher: np.ndarray, reach: tuple) -> np.ndarray:

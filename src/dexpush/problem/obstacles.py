@@ -215,19 +215,25 @@ def _max(a: jnp.ndarray | None, b: jnp.ndarray) -> jnp.ndarray:
 def bound_gaps(x: State, scene: Scene):
     """Per workspace half-plane n·p ≤ o, the gaps (m) of the footprint (the least o − n·v over its outline's
     corners v) and of the pusher: (footprint gap, pusher gap), each (...,); then per half-plane of the
-    pusher's own bounds, (+inf, pusher gap)."""
+    object's own bounds, (footprint gap, +inf), and per half-plane of the pusher's, (+inf, pusher gap)."""
     xb, yb, th, xc, yc = components(x)
     s, c = fastmath.sincos(th)
     a = scene.edge_a
-    for h in range(scene.bounds.shape[0]):
-        nx, ny, o = scene.bounds[h, 0], scene.bounds[h, 1], scene.bounds[h, 2]
+
+    def footprint_gap(nx: jnp.ndarray, ny: jnp.ndarray, o: jnp.ndarray) -> jnp.ndarray:
         mx, my = c * nx + s * ny, -s * nx + c * ny                    # the normal in {B}
         if a.shape[0] > UNROLL_CORNERS:
             reach = jnp.max(mx[..., None] * a[:, 0] + my[..., None] * a[:, 1], -1)
         else:
             reach = functools.reduce(jnp.maximum, [mx * a[e, 0] + my * a[e, 1] for e in range(a.shape[0])])
-        base = o - nx * xb - ny * yb
-        yield base - reach, o - nx * xc - ny * yc - scene.pusher_radius
+        return o - nx * xb - ny * yb - reach
+
+    for h in range(scene.bounds.shape[0]):
+        nx, ny, o = scene.bounds[h, 0], scene.bounds[h, 1], scene.bounds[h, 2]
+        yield footprint_gap(nx, ny, o), o - nx * xc - ny * yc - scene.pusher_radius
+    for h in range(scene.object_bounds.shape[0]):                     # the object's own bounds: no pusher
+        body = footprint_gap(scene.object_bounds[h, 0], scene.object_bounds[h, 1], scene.object_bounds[h, 2])
+        yield body, jnp.full_like(body, jnp.inf)
     for h in range(scene.pusher_bounds.shape[0]):                     # the pusher's own bounds: no footprint
         nx, ny, o = scene.pusher_bounds[h, 0], scene.pusher_bounds[h, 1], scene.pusher_bounds[h, 2]
         pusher = o - nx * xc - ny * yc - scene.pusher_radius

@@ -57,8 +57,9 @@ class Problem:
     """Push ``shape`` to the pose ``goal`` (x, y, θ in the world frame) without touching the disc
     ``obstacles`` (c_x, c_y, radius) or the convex ``polygons`` (boxes, walls: each a tuple of corners;
     :mod:`dexpush.problem.regions`), and without leaving the convex ``workspace`` (its corners, or a
-    rectangle (x_lo, y_lo, x_hi, y_hi); None: unbounded), the pusher alone also inside the convex
-    ``pusher_workspace`` (likewise; a robot arm's reach, which the object may leave), at the cost of eq. (9)
+    rectangle (x_lo, y_lo, x_hi, y_hi); None: unbounded), the object's footprint alone also inside the
+    convex ``object_workspace`` and the pusher alone inside the convex ``pusher_workspace`` (likewise; on a
+    robot: where its pusher can get round the object, and the arm's reach), at the cost of eq. (9)
     with ``weights``;
     success is a position error below ``tolerance_m`` and a heading error below ``tolerance_deg``.
     The goal's footprint must fit: a ``ValueError`` says which obstacle it touches.
@@ -68,9 +69,9 @@ class Problem:
     ``origin`` and ``local_scene`` (the same in the controller's frame, whose origin is the goal's
     position: float32 keeps its resolution wherever the world frame is), and ``judge_scene`` (the
     footprint's own edges: what :meth:`collides` and :meth:`clearance` judge a trial by; the
-    ``pusher_workspace`` left out: staying within a robot's reach is the safety filter's to keep, not a
-    touch), and ``guide`` (the cost-to-go round the obstacles, :mod:`dexpush.problem.guidance`; None without
-    polygons and workspace, or with ``weights.guidance`` off).
+    ``object_workspace`` and ``pusher_workspace`` left out: they keep the planner where a robot can push, and
+    leaving them is no touch), and ``guide`` (the cost-to-go round the obstacles,
+    :mod:`dexpush.problem.guidance`; None without polygons and workspace, or with ``weights.guidance`` off).
     """
 
     shape: Shape
@@ -84,6 +85,7 @@ class Problem:
     #: (discs, polygons): the cost's scenes hold at least this many, inert ones added far away, so that
     #: a family of problems (the clutter benchmark's seeds) shares compiled code (:meth:`Scene.make`)
     pad_to: tuple[int, int] = (0, 0)
+    object_workspace: tuple[tuple[float, float], ...] | None = None
     pusher_workspace: tuple[tuple[float, float], ...] | None = None
     contour: Contour = field(init=False, repr=False)
     scene: Scene = field(init=False, repr=False)
@@ -107,18 +109,17 @@ class Problem:
             bounds = workspace_halfplanes(self.workspace)
             corners = _corners(bounds)
             self._check_goal_inside(goal, bounds)    # before the guidance, whose grid the goal must lie on
-        pusher_bounds, pusher_corners = None, None
-        if self.pusher_workspace is not None:
-            pusher_bounds = workspace_halfplanes(self.pusher_workspace)
-            pusher_corners = _corners(pusher_bounds)
+        own = {name: None if getattr(self, name) is None else workspace_halfplanes(getattr(self, name))
+               for name in ("object_workspace", "pusher_workspace")}     # the object's and the pusher's own
         origin = np.array([goal[0], goal[1], 0.0])
         put = object.__setattr__
         put(self, "goal", tuple(float(v) for v in goal))
         put(self, "obstacles", tuple(tuple(float(v) for v in d) for d in discs))
         put(self, "polygons", tuple(tuple((float(x), float(y)) for x, y in p) for p in polys))
         put(self, "workspace", None if corners is None else tuple((float(x), float(y)) for x, y in corners))
-        put(self, "pusher_workspace",
-            None if pusher_corners is None else tuple((float(x), float(y)) for x, y in pusher_corners))
+        for name, rows in own.items():
+            put(self, name, None if rows is None else tuple((float(x), float(y)) for x, y in _corners(rows)))
+        object_bounds, pusher_bounds = own["object_workspace"], own["pusher_workspace"]
         guide = None
         # disc-only scenes keep the detour round the discs (docs/workspaces.md#global-guidance: on Task III
         # the cost-to-go, whose footprint may turn to fit, led the T into the gap beside the disc)
@@ -128,7 +129,8 @@ class Problem:
         put(self, "guide", guide)
         put(self, "contour", Contour.of(self.shape))
         put(self, "scene", Scene.make(self.shape, goal, discs, self.weights, COST_OUTLINE_EDGES, polys, bounds,
-                                      guide, self.pad_to, COST_PIECE_CORNERS, pusher_bounds))
+                                      guide, self.pad_to, COST_PIECE_CORNERS, object_bounds,
+                                      pusher_bounds))
         put(self, "origin", origin)
         shift = origin * [1.0, 1.0, 0.0]
         # a half-plane n·p ≤ o seen from the origin: n·(p − origin) ≤ o − n·origin
@@ -138,7 +140,8 @@ class Problem:
         put(self, "local_scene", Scene.make(self.shape, goal - origin, discs - shift, self.weights, COST_OUTLINE_EDGES,
                                             tuple(p - origin[:2] for p in polys), seen_from_origin(bounds),
                                             None if guide is None else guide.shifted(origin), self.pad_to,
-                                            COST_PIECE_CORNERS, seen_from_origin(pusher_bounds)))
+                                            COST_PIECE_CORNERS, seen_from_origin(object_bounds),
+                                            seen_from_origin(pusher_bounds)))
         put(self, "judge_scene", Scene.make(self.shape, goal, discs, self.weights, None, polys, bounds,
                                             pad_to=self.pad_to))
         self._check_goal_fits()
@@ -198,7 +201,8 @@ class Problem:
     def with_weights(self, weights: CostWeights) -> Problem:
         """The same problem at the cost ``weights``."""
         return Problem(self.shape, self.goal, self.obstacles, weights, self.tolerance_m, self.tolerance_deg,
-                       self.polygons, self.workspace, self.pad_to, self.pusher_workspace)
+                       self.polygons, self.workspace, self.pad_to, self.object_workspace,
+                       self.pusher_workspace)
 
 
 def _corners(bounds: np.ndarray) -> np.ndarray:

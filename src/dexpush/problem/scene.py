@@ -62,28 +62,32 @@ class Scene:
     guide: jnp.ndarray = None  # type: ignore[assignment]
     guide_lo: jnp.ndarray = None  # type: ignore[assignment]
     guide_cell: jnp.ndarray = None  # type: ignore[assignment]
-    #: (H', 3) half-planes [n_x, n_y, o] the pusher alone stays within (a robot arm's reach); H' may be 0
+    #: (H', 3) half-planes [n_x, n_y, o] the footprint alone stays within (where a robot's pusher can get round
+    #: it); H' may be 0
+    object_bounds: jnp.ndarray = None  # type: ignore[assignment]
+    #: (H'', 3) half-planes the pusher alone stays within (a robot arm's reach); H'' may be 0
     pusher_bounds: jnp.ndarray = None  # type: ignore[assignment]
 
     @property
     def has_obstacles(self) -> bool:
         """Whether there is anything to keep clear of: a disc, a polygon or a workspace boundary."""
         return bool(self.obstacles.shape[0] or self.polygons.shape[0] or self.bounds.shape[0]
-                    or self.pusher_bounds.shape[0])
+                    or self.object_bounds.shape[0] or self.pusher_bounds.shape[0])
 
     @staticmethod
     def make(shape: Shape, goal: object, obstacles: object = (), weights: CostWeights | None = None,
              max_edges: int | None = None, polygons: tuple[np.ndarray, ...] = (),
              bounds: np.ndarray | None = None, guide: CostToGo | None = None,
              pad_to: tuple[int, int] = (0, 0), max_piece_corners: int = JUDGE_PIECE_CORNERS,
-             pusher_bounds: np.ndarray | None = None) -> Scene:
+             object_bounds: np.ndarray | None = None, pusher_bounds: np.ndarray | None = None) -> Scene:
         """The cost's view of a task; with ``max_edges``, the footprint's outline has at most that many
         edges where the footprint is convex (:meth:`dexpush.model.shape.Shape.outline_edges`), and its
         convex pieces (what the polygon gaps see) at most ``max_piece_corners`` corners.
         ``polygons`` are convex obstacle polygons (checked by
         :func:`dexpush.problem.regions.convex_polygon`), ``bounds`` the workspace's half-planes
-        (:func:`dexpush.problem.regions.workspace_halfplanes`), ``pusher_bounds`` the half-planes of the
-        pusher's own workspace (the arm's reach), ``guide`` the cost-to-go, all in the
+        (:func:`dexpush.problem.regions.workspace_halfplanes`), ``object_bounds`` and ``pusher_bounds`` the
+        half-planes that bound the object alone (where a robot's pusher can get round it) and the pusher alone
+        (the arm's reach), ``guide`` the cost-to-go, all in the
         frame of ``goal``. ``pad_to`` (discs, polygons): add inert ones 1 km away up to these counts, so that
         the problems of one family (a clutter benchmark's seeds) have arrays of one shape and share compiled code.
 
@@ -115,21 +119,22 @@ class Scene:
         poly, planes = padded_polygons(polygons)
         pieces, piece_planes = padded_polygons(footprint_pieces(shape, max_piece_corners))
         bounds = np.zeros((0, 3)) if bounds is None else np.asarray(bounds, np.float64).reshape(-1, 3)
-        pusher_bounds = (np.zeros((0, 3)) if pusher_bounds is None
-                         else np.asarray(pusher_bounds, np.float64).reshape(-1, 3))
+        object_bounds, pusher_bounds = (np.zeros((0, 3)) if b is None else np.asarray(b, np.float64).reshape(-1, 3)
+                                        for b in (object_bounds, pusher_bounds))
         values, lo, cell = (np.zeros((0, 0)), np.zeros(2), 1.0) if guide is None else (guide.values, guide.lo,
                                                                                            guide.cell)
         f32 = partial(jnp.asarray, dtype=jnp.float32)
         return Scene(jnp.asarray(g), jnp.asarray(obs), jnp.asarray(a), jnp.asarray(b), jnp.asarray(r_s),
                      shape.pusher_radius, jnp.asarray(rho), jnp.asarray(w.obstacle_margin_m),
                      jnp.asarray(poly), jnp.asarray(planes), jnp.asarray(bounds), jnp.asarray(pieces),
-                     jnp.asarray(piece_planes), f32(values), f32(lo), f32(cell), jnp.asarray(pusher_bounds))
+                     jnp.asarray(piece_planes), f32(values), f32(lo), f32(cell), jnp.asarray(object_bounds),
+                     jnp.asarray(pusher_bounds))
 
 
 jax.tree_util.register_dataclass(
     Scene, data_fields=["goal", "obstacles", "edge_a", "edge_b", "r_s", "detour_radius", "margin", "polygons",
                         "polygon_planes", "bounds", "pieces", "piece_planes", "guide", "guide_lo", "guide_cell",
-                        "pusher_bounds"],
+                        "object_bounds", "pusher_bounds"],
     meta_fields=["pusher_radius"])
 
 
