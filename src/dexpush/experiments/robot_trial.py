@@ -178,8 +178,9 @@ def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, p
     within the arm's reach, ``robot.reach_margin`` inside it (:meth:`DriverSettings.reach_halfplanes`, on the
     side of the inner circle where the middle of start and goal lies). The object's footprint stays a
     pusher's width and ``robot.object_room`` further inside, where the pusher can get round it (an object
-    pushed where the pusher cannot follow cannot be pushed back), each line eased only as far as the start's
-    and the goal's footprints need.
+    pushed where the pusher cannot follow cannot be pushed back; its outer lines touch the circle, where the
+    pusher's are inscribed in theirs), each line eased as far as the start's and the goal's footprints need to
+    lie clear of the cost's margin (``obstacle_margin_m``) by 5 mm.
     """
     pose = np.asarray(pose, dtype=np.float64)
     goal = np.asarray(problem.goal, dtype=np.float64)
@@ -191,11 +192,12 @@ def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, p
     middle = (pose[:2] + goal[:2]) / 2
     ends = np.concatenate([*problem.shape.footprint_world(pose), *problem.shape.footprint_world(goal)])
     inset = robot.reach_margin + 2 * problem.shape.pusher_radius + robot.object_room
+    ease = problem.weights.obstacle_margin_m + 0.005      # a start or goal never inside the cost's margin
     for sides in (16, 12, 8):                 # the reach's polygon with as many sides as a workspace may have
         rows = driver.reach_halfplanes(middle, robot.reach_margin, sides)
         reach = clip_convex(area, rows)
-        held = driver.reach_halfplanes(middle, inset, sides)
-        held[:, 2] = np.maximum(held[:, 2], np.max(ends @ held[:, :2].T, 0) + 0.005)
+        held = driver.reach_halfplanes(middle, inset, sides, inscribed=False)
+        held[:, 2] = np.maximum(held[:, 2], np.max(ends @ held[:, :2].T, 0) + ease)
         held = clip_convex(area, held)
         if max(len(reach), len(held)) <= MAX_POLYGON_CORNERS:
             break
