@@ -40,9 +40,10 @@ class RobotSettings:
 
     ``driver.table_origin`` and ``table_yaw`` place the table frame in the robot's base frame; for
     the simulated robot they are chosen per episode (:meth:`DriverSettings.facing`: the task in
-    front of the robot) unless ``place_task`` is False. The planner and the filter share one bound
-    (:func:`robot_area`): the task's workspace, or the box around the start and the goal grown by
-    ``workspace_margin``, within ``safety.workspace`` and ``reach_margin`` inside the arm's reach.
+    front of the robot) unless ``place_task`` is False. The planner keeps the pusher within the task's
+    area (its workspace, or the box around start and goal grown by ``workspace_margin``, within
+    ``safety.workspace``) and ``reach_margin`` inside the arm's reach, the filter's workspace; and the
+    object a pusher's width and ``object_room`` further in (:func:`robot_area`).
     """
 
     safety: SafetySettings = field(default_factory=SafetySettings)
