@@ -15,7 +15,7 @@ from dexpush.common.checks import check_positive
 from dexpush.common.interfaces import Controller, Observation
 from dexpush.common.se2 import wrap_angle
 from dexpush.problem.regions import convex_polygon
-from dexpush.robot.safety import SafetySettings, safe_velocity
+from dexpush.robot.safety import SafetySettings, filter_velocity
 
 __all__ = ["FrameGuard", "GuardedController"]
 
@@ -142,8 +142,10 @@ class GuardedController:
             self.blind += 1
             self._v = np.zeros(2)
         else:
-            result = safe_velocity(u, p, self._v, self.control_period, self.safety, self.obstacles,
-                                   self.pusher_radius, self.polygons)
+            u = u if np.all(np.isfinite(u)) else np.zeros(2)       # a non-finite request is a request to stop
+            result = filter_velocity(u.reshape(2), np.asarray(p, dtype=np.float64).reshape(2), self._v,
+                                     self.control_period, self.safety, self.obstacles, self.pusher_radius,
+                                     self.polygons)
             self.filtered += result.changed
             if result.changed:
                 for name in result.active:

@@ -33,13 +33,14 @@ and the speed rows second (safety before smoothness); with nothing feasible the 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive
 from dexpush.problem.regions import convex_polygon, nearest_on_outline, workspace_halfplanes
 
-__all__ = ["FilterResult", "SafetySettings", "safe_velocity"]
+__all__ = ["FilterResult", "SafetySettings", "filter_velocity", "safe_velocity"]
 
 _SIDES = 16
 _COS = np.cos(np.pi / _SIDES)
@@ -65,9 +66,9 @@ class SafetySettings:
     keep_out_margin: float = 0.005        #: keep-out discs are obstacles grown by the pusher radius and this (m)
     braking_s: float = 0.3                #: the barrier's time constant: γ = T / braking_s (at most 1)
 
-    @property
+    @cached_property
     def workspace_rows(self) -> np.ndarray:
-        """The workspace as half-plane rows [n_x, n_y, o] (n·p ≤ o inside; (0, 3) without one)."""
+        """The workspace as half-plane rows [n_x, n_y, o] (n·p ≤ o inside; (0, 3) without one), derived once."""
         return np.zeros((0, 3)) if self.workspace is None else workspace_halfplanes(self.workspace)
 
     def __post_init__(self) -> None:
@@ -184,8 +185,16 @@ def safe_velocity(u: object, pusher_xy: object, v_prev: object, control_period: 
     vp = np.asarray(v_prev, dtype=np.float64).reshape(2)
     T = check_positive("control_period", control_period, "s")
     obs = np.asarray(obstacles, dtype=np.float64).reshape(-1, 3)
-    polys = tuple(convex_polygon(q, "keep-out polygon") for q in polygons)
-    groups = _rows(p, vp, obs, polys, float(pusher_radius), T, settings)
+    return filter_velocity(u, p, vp, T, settings, obs, float(pusher_radius),
+                           tuple(convex_polygon(q, "keep-out polygon") for q in polygons))
+
+
+def filter_velocity(u: np.ndarray, p: np.ndarray, v_prev: np.ndarray, T: float, settings: SafetySettings,
+                    obstacles: np.ndarray, pusher_radius: float, polygons: tuple[np.ndarray, ...]) -> FilterResult:
+    """:func:`safe_velocity` on inputs already checked: float64 (2,) ``u`` (finite), ``p`` and ``v_prev``,
+    ``T`` > 0, discs (m, 3) and ``polygons`` as :func:`dexpush.problem.regions.convex_polygon` returns them
+    (counter-clockwise). A loop that filters every period checks its keep-out zones once and calls this."""
+    groups = _rows(p, v_prev, obstacles, polygons, pusher_radius, T, settings)
     by_name = {name: (A, b) for name, A, b in groups}
     tiers = [("", [g[0] for g in groups]),
              ("acceleration", [g[0] for g in groups if g[0] != "acceleration"]),
