@@ -13,7 +13,10 @@ sampling, rollout of every sample through the C-GVMM, cost, weighting and the up
 ``dexpush.model.cgvmm`` line by line (same tables, same penetration fix) and lives here only.
 Times are the best of 5 blocks' mean per call: on the shared 2-core VMs we measure on, other
 tenants moved single-call medians by ±30 % between runs, the best block by a few per cent.
-The last line printed is JSON with ``ms_per_iteration_K1024`` and ``speedup_vs_pytorch_mppi``.
+The rect and the T are timed in alternating blocks, so their ratio (issue 39: T ≤ 1.2× rect)
+sees the same machine. ns per sample-step is an iteration's time over K·N_p (Nav2's C++ MPPI
+reports ~33 ns on an i9). The last line printed is JSON with ``ms_per_iteration_K1024``,
+``tee_over_rect_K1024`` and ``speedup_vs_pytorch_mppi``.
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ from dexpush.model.cgvmm import LAMBDA_TRUE, Contour
 from dexpush.problem.scene import Scene
 
 TARGET_MS = 1.0   # SPEC §7: median ≤ 1.0 ms at K = 1024 on 2 cores
+HORIZON = MPPISettings().horizon   # N_p, the steps of each sample's rollout
 
 
 def best_ms(fn, repeats: int, blocks: int = 5) -> float:
@@ -61,11 +65,34 @@ def _planner(K: int, shape_name: str = "rect"):
     return step, policy_init(LAMBDA_TRUE, settings, 0)
 
 
-def dexpush_iteration(K: int, repeats: int, shape_name: str = "rect") -> float:
+def best_ms_alternating(fns: dict[str, object], repeats: int, blocks: int = 5) -> dict[str, float]:
+    """:func:`best_ms` of each of ``fns``, their blocks alternating so that load drift hits all alike."""
+    best = {}
+    for name, fn in fns.items():
+        fn()
+        fn()
+        best[name] = float("inf")
+    for _ in range(blocks):
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            for _ in range(repeats):
+                fn()
+            best[name] = min(best[name], (time.perf_counter() - t0) / repeats)
+    return {name: b * 1e3 for name, b in best.items()}
+
+
+def dexpush_call(K: int, shape_name: str = "rect"):
+    """One compiled controller step (iteration + shift) for the Task I scene, as a call to time."""
     step, state = _planner(K, shape_name)
     step = jax.jit(step)
     x0 = jnp.asarray([0.0, 0.0, 0.0, -0.15 if shape_name == "rect" else -0.1, 0.0], jnp.float32)
-    return best_ms(lambda: step(state, x0)[1].block_until_ready(), repeats)
+    return lambda: step(state, x0)[1].block_until_ready()
+
+
+def dexpush_iteration(K: int, repeats: int) -> tuple[float, float]:
+    """ms per iteration at K samples on the rect and the T, timed in alternating blocks."""
+    ms = best_ms_alternating({"rect": dexpush_call(K), "tee": dexpush_call(K, "tee")}, repeats)
+    return ms["rect"], ms["tee"]
 
 
 def dexpush_batched(problems: int, K: int, repeats: int) -> float:
@@ -81,16 +108,16 @@ def dexpush_batched(problems: int, K: int, repeats: int) -> float:
 
 
 # ---------------------------------------------------------------------------- torch port
-def torch_problem(shape: Shape, settings: MPPISettings):
+def torch_problem(shape: Shape, settings: MPPISettings, device: str = "cpu"):
     import torch
 
-    coeff = torch.tensor(shape.coefficients, dtype=torch.float32)
+    coeff = torch.tensor(shape.coefficients, dtype=torch.float32, device=device)
     n = coeff.shape[0]
     h = 2 * np.pi / n
-    lam = torch.tensor(LAMBDA_TRUE)
+    lam = torch.tensor(LAMBDA_TRUE, device=device)
     mu = 0.3
-    dts = torch.tensor(settings.step_durations(), dtype=torch.float32)
-    goal = torch.tensor([0.6, 0.3, 0.0])
+    dts = torch.tensor(settings.step_durations(), dtype=torch.float32, device=device)
+    goal = torch.tensor([0.6, 0.3, 0.0], device=device)
 
     def frame(px, py):
         phi = torch.atan2(py, px)
@@ -174,19 +201,29 @@ def torch_problem(shape: Shape, settings: MPPISettings):
     return dynamics, running_cost, terminal
 
 
+def torch_device() -> str:
+    """Where pytorch-mppi runs: the GPU when JAX runs on one and torch sees one, else the CPU."""
+    import torch
+
+    return "cuda" if jax.default_backend() == "gpu" and torch.cuda.is_available() else "cpu"
+
+
 def pytorch_mppi_iteration(K: int, repeats: int) -> float:
     import torch
     from pytorch_mppi import MPPI as TorchMPPI  # noqa: N811
 
+    device = torch_device()
+    sync = torch.cuda.synchronize if device == "cuda" else (lambda: None)
     settings = MPPISettings(num_samples=K)
-    dynamics, running_cost, terminal = torch_problem(Shape.rectangle(), settings)
+    dynamics, running_cost, terminal = torch_problem(Shape.rectangle(), settings, device)
     c = settings.v_clip
-    ctrl = TorchMPPI(dynamics, running_cost, 5, torch.eye(2) * settings.noise_sigma**2, num_samples=K,
-                     horizon=settings.horizon, terminal_state_cost=terminal, lambda_=1.0,
-                     u_min=torch.tensor([-c, -c]), u_max=torch.tensor([c, c]), step_dependent_dynamics=True)
-    state = torch.tensor([0.0, 0.0, 0.0, -0.15, 0.0])
+    ctrl = TorchMPPI(dynamics, running_cost, 5, torch.eye(2, device=device) * settings.noise_sigma**2,
+                     num_samples=K, horizon=settings.horizon, terminal_state_cost=terminal, lambda_=1.0,
+                     device=device, u_min=torch.tensor([-c, -c], device=device),
+                     u_max=torch.tensor([c, c], device=device), step_dependent_dynamics=True)
+    state = torch.tensor([0.0, 0.0, 0.0, -0.15, 0.0], device=device)
     with torch.no_grad():
-        return best_ms(lambda: ctrl.command(state), repeats)
+        return best_ms(lambda: (ctrl.command(state), sync()), repeats)
 
 
 def time_noise(K: int = 1024, N: int = 25) -> dict[str, float]:
@@ -224,22 +261,26 @@ def main() -> None:
     ap.add_argument("--ops", action="store_true", help="also time single XLA ops")
     ap.add_argument("--noise", action="store_true", help="also time MPPI's noise generation")
     ap.add_argument("--repeats", type=int, default=None, help="calls per timed block (5 blocks)")
+    ap.add_argument("--sizes", default=None, help="values of K, comma-separated (must include 1024)")
     args = ap.parse_args()
     repeats = args.repeats or (40 if args.quick else 100)
     sizes = [256, 1024] if args.quick else [256, 1024, 4096, 16384]
+    if args.sizes:
+        sizes = sorted({int(k) for k in args.sizes.split(",")} | {1024})
     try:
         from dexpush.common.xla_options import active as one_thread
     except ImportError:   # dexpush before 0.4 (to time an older checkout with this script)
         def one_thread() -> str:
             return "n/a"
     print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, jax {jax.__version__} "
-          f"({jax.default_backend()}), XLA CPU pool of one thread: {one_thread()}, "
+          f"({jax.default_backend()}: {jax.devices()[0].device_kind}), XLA CPU pool of one thread: {one_thread()}, "
           f"best of 5 blocks of {repeats} calls")
-    print("| K | dexpush rect (ms) | dexpush T (ms) | pytorch-mppi rect (ms) | speed-up (rect) |")
-    print("|---|---|---|---|---|")
+    print("| K | dexpush rect (ms) | dexpush T (ms) | T / rect | ns per sample-step, rect / T "
+          "| pytorch-mppi rect (ms) | speed-up (rect) |")
+    print("|---|---|---|---|---|---|---|")
     # dexpush first, every size, then pytorch-mppi: torch's OpenMP threads busy-wait after a call and
     # can take the second core from whatever is timed next
-    ours = {K: (dexpush_iteration(K, repeats), dexpush_iteration(K, repeats, "tee")) for K in sizes}
+    ours = {K: dexpush_iteration(K, repeats) for K in sizes}
     batched = dexpush_batched(30, 1024, max(3, repeats // 5))
     rows = {}
     for K in sizes:
@@ -248,9 +289,14 @@ def main() -> None:
         except ImportError:
             theirs = float("nan")
         rows[K] = (ours[K][0], theirs, ours[K][1])
-        print(f"| {K} | {ours[K][0]:.2f} | {ours[K][1]:.2f} | {theirs:.2f} | {theirs / ours[K][0]:.1f}× |", flush=True)
+        ns = [ms * 1e6 / (K * HORIZON) for ms in ours[K]]
+        print(f"| {K} | {ours[K][0]:.2f} | {ours[K][1]:.2f} | {ours[K][1] / ours[K][0]:.2f} "
+              f"| {ns[0]:.0f} / {ns[1]:.0f} | {theirs:.2f} | {theirs / ours[K][0]:.1f}× |", flush=True)
     print(f"\n30 problems × 1024 samples, one vmapped call: {batched:.1f} ms ({batched / 30:.2f} ms a problem)")
     result = {"ms_per_iteration_K1024": round(rows[1024][0], 3), "ms_per_iteration_K1024_tee": round(rows[1024][2], 3),
+              "tee_over_rect_K1024": round(rows[1024][2] / rows[1024][0], 3),
+              "ns_per_sample_step_K1024": round(rows[1024][0] * 1e6 / (1024 * HORIZON), 1),
+              "ns_per_sample_step_K1024_tee": round(rows[1024][2] * 1e6 / (1024 * HORIZON), 1),
               "pytorch_mppi_ms_K1024": round(rows[1024][1], 3),
               "speedup_vs_pytorch_mppi": round(rows[1024][1] / rows[1024][0], 2),
               "ms_30_problems_x_1024": round(batched, 2), "target_ms_K1024": TARGET_MS,

@@ -43,7 +43,7 @@ def main() -> None:
     reps = {K: max(3, args.repeats * 1024 // max(K, 1024)) for K in sizes}   # fewer calls for large K
     ours = {}
     for K in sizes:
-        ours[K] = (dexpush_iteration(K, reps[K]), dexpush_iteration(K, reps[K], "tee"))
+        ours[K] = dexpush_iteration(K, reps[K])
         print(f"K = {K}: {ours[K][0]:.2f} ms rect, {ours[K][1]:.2f} ms T", file=sys.stderr, flush=True)
     timing = {}
     for K in sizes:

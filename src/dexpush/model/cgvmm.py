@@ -257,7 +257,7 @@ def _solve(contour: Contour, xs: tuple[jnp.ndarray, ...], u: jnp.ndarray, params
     out = dict(mode=mode, fn=fn, ft=ft, phidot=phidot, phi=phi, in_contact=in_contact,
                a=(a0, a1), e=(e0, e1))
     if contour.corners is not None:                     # N_c = 2 at a concave corner (eq. 5–8)
-        k = corner_solve(contour.corners, px, py, vbx, vby, M, mu)
+        k = corner_solve(contour.corners, px, py, vbx, vby, M, mu, one)
         at = k.at
         k_mode = jnp.where(k.jam, CORNER, jnp.where(k.slide, jnp.where(k.side > 0, SLIDE_CCW, SLIDE_CW), FREE))
         for name, value in (("mode", k_mode), ("fn", k.fn), ("ft", k.ft), ("phidot", k.phidot)):
@@ -354,7 +354,7 @@ def step(contour: Contour, x: State, u: jnp.ndarray, dt: float | jnp.ndarray,
     body = _to_body(moved, one)
     fixed = _resolve(contour, moved, o["mode"] != FREE, body, one)
     if "corner" in o:
-        fixed = corner_fix(o["corner"], moved, fixed, body[0], body[1])
+        fixed = corner_fix(o["corner"], moved, fixed, body[0], body[1], one)
     return _like(x, fixed)
 
 

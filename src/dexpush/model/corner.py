@@ -18,6 +18,8 @@ from typing import NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
+from dexpush.common import fastmath
+
 __all__ = ["CORNER_REACH", "CORNER_TOL", "CornerSolution", "corner_fix", "corner_solve", "corner_table",
            "nearest_corner"]
 
@@ -78,23 +80,64 @@ def corner_table(corners: np.ndarray) -> np.ndarray:
     return np.concatenate([c, b, cos_g[:, None], sin_g[:, None], s1[:, None], s2[:, None]], -1)
 
 
-def nearest_corner(corners: jnp.ndarray, px: jnp.ndarray,
-                    py: jnp.ndarray) -> tuple[list[jnp.ndarray], jnp.ndarray]:
-    """The row of ``corners`` (see :func:`corner_table`) nearest to p, as 12 arrays broadcast
-    like ``px``, and the squared distance. A static loop: shapes have few corners."""
+def nearest_corner(corners: jnp.ndarray, px: jnp.ndarray, py: jnp.ndarray,
+                   one: jnp.ndarray | float = 1.0) -> tuple[jnp.ndarray, jnp.ndarray]:
+    """The index (as a float) of the row of ``corners`` (see :func:`corner_table`) nearest to p,
+    and the squared distance, both broadcast like ``px``. A static loop: shapes have few corners.
+
+    With a traced ``one`` (:func:`dexpush.common.fastmath.materialize`) both are stored once,
+    so that the loops that read the corner's constants pick them with a few selects each
+    instead of repeating the search.
+    """
     cols = corners.astype(px.dtype)
-    best = [jnp.broadcast_to(cols[0, j], px.shape) for j in range(cols.shape[1])]
-    d2 = (px - best[0]) ** 2 + (py - best[1]) ** 2
+    d2 = (px - cols[0, 0]) ** 2 + (py - cols[0, 1]) ** 2
+    index = jnp.zeros_like(px)
     for i in range(1, cols.shape[0]):
         di = (px - cols[i, 0]) ** 2 + (py - cols[i, 1]) ** 2
         closer = di < d2
-        best = [jnp.where(closer, cols[i, j], b) for j, b in enumerate(best)]
+        index = jnp.where(closer, i, index)
         d2 = jnp.where(closer, di, d2)
-    return best, d2
+    return fastmath.materialize(one, index, d2)
+
+
+def _corner_constants(row: jnp.ndarray, M: tuple[jnp.ndarray, ...],
+                      mu: float | jnp.ndarray) -> tuple[jnp.ndarray, ...]:
+    """What the two-contact solve needs of one corner (a row of :func:`corner_table`) that does
+    not depend on the pusher's velocity, broadcast like M and μ (scalars in a rollout, where the
+    parameters are shared by every sample):
+
+        c, n1, n2, b, σ1, σ2, G⁻¹ (xx, xy, yy), cos(γ + atan μ), and per face i:
+        d_i = σ_i·t_i, the cone edge g_i = n_i + μd_i, a_i = G·g_i, 1/(a_i × d_i)
+    """
+    cx, cy, n1x, n1y, n2x, n2y, bx, by, cg, sg, s1, s2 = (row[j] for j in range(12))
+    m00, m01, m02, m11, m12, m22 = M
+    # G = J*·M·J*ᵀ at c, J* = [[1, 0, −c_y], [0, 1, c_x]]
+    gxx = m00 - 2 * m02 * cy + m22 * cy * cy
+    gxy = m01 + m02 * cx - m12 * cy - m22 * cx * cy
+    gyy = m11 + 2 * m12 * cx + m22 * cx * cx
+    det = gxx * gyy - gxy * gxy
+    cos_half = (cg - mu * sg) / jnp.sqrt(1 + mu * mu)                           # cos(γ + atan μ)
+    faces = []
+    for nx, ny, sig in ((n1x, n1y, s1), (n2x, n2y, s2)):
+        dx, dy = sig * ny, -sig * nx                       # d = σ·t, t = (n_y, −n_x)
+        gx, gy = nx + mu * dx, ny + mu * dy                # the cone edge F/f
+        ax, ay = gxx * gx + gxy * gy, gxy * gx + gyy * gy  # G·(n + μd)
+        faces += [dx, dy, gx, gy, ax, ay, 1 / (ax * dy - ay * dx)]
+    return (cx, cy, n1x, n1y, n2x, n2y, bx, by, s1, s2, gyy / det, -gxy / det, gxx / det, cos_half, *faces)
+
+
+def _pick(index: jnp.ndarray, rows: list[tuple[jnp.ndarray, ...]]) -> list[jnp.ndarray]:
+    """Each value of ``rows[index]``, per sample (``index`` a float from :func:`nearest_corner`)."""
+    picked = [jnp.broadcast_to(v, jnp.broadcast_shapes(jnp.shape(v), index.shape)) for v in rows[0]]
+    for i in range(1, len(rows)):
+        here = index == i
+        picked = [jnp.where(here, v, p) for v, p in zip(rows[i], picked)]
+    return picked
 
 
 def corner_solve(corners: jnp.ndarray, px: jnp.ndarray, py: jnp.ndarray, vbx: jnp.ndarray, vby: jnp.ndarray,
-                  M: tuple[jnp.ndarray, ...], mu: float | jnp.ndarray) -> CornerSolution:
+                 M: tuple[jnp.ndarray, ...], mu: float | jnp.ndarray,
+                 one: jnp.ndarray | float = 1.0) -> CornerSolution:
     """Eq. 5–8 with two contacts: the pusher centre p at a concave corner c touches two faces.
 
     Both contacts act at the one point c (in {B}) with inward normals n1, n2, so the total
@@ -120,40 +163,44 @@ def corner_solve(corners: jnp.ndarray, px: jnp.ndarray, py: jnp.ndarray, vbx: jn
     float64 reference in tests/test_corner.py, which solves all 16 combinations of the two
     contacts' modes, finds exactly this motion on 1200 random corner states, and no other
     except the wedged one above.
+
+    Everything that does not depend on p or v (G⁻¹, the cone edges, the sliding systems'
+    determinants) is computed per corner (:func:`_corner_constants`) and picked per sample.
+    ``one``, a traced 1 (:func:`dexpush.common.fastmath.materialize`), stores the nearest
+    corner, the mode and the force once for the several loops of a step that read them.
     """
-    (cx, cy, n1x, n1y, n2x, n2y, bx, by, cg, sg, s1, s2), d2 = nearest_corner(corners, px, py)
+    if isinstance(one, int | float):      # no traced 1 from the caller: one from p keeps the picks cheap
+        one = fastmath.traced_one(px)
+    index, d2 = nearest_corner(corners, px, py, one)
+    table = corners.astype(px.dtype)
+    rows = [_corner_constants(table[i], M, mu) for i in range(table.shape[0])]
+    (cx, cy, n1x, n1y, n2x, n2y, bx, by, s1, s2, ixx, ixy, iyy, cos_half,
+     d1x, d1y, g1x, g1y, a1x, a1y, r1, d2x, d2y, g2x, g2y, a2x, a2y, r2) = _pick(index, rows)
     qx, qy = px - cx, py - cy
     at = ((d2 <= CORNER_REACH**2) & (n1x * qx + n1y * qy >= -CORNER_TOL)
           & (n2x * qx + n2y * qy >= -CORNER_TOL))
-    m00, m01, m02, m11, m12, m22 = M
-    # G = J*·M·J*ᵀ at c, J* = [[1, 0, −c_y], [0, 1, c_x]]
-    gxx = m00 - 2 * m02 * cy + m22 * cy * cy
-    gxy = m01 + m02 * cx - m12 * cy - m22 * cx * cy
-    gyy = m11 + 2 * m12 * cx + m22 * cx * cx
-    det = gxx * gyy - gxy * gxy
-    jx, jy = (gyy * vbx - gxy * vby) / det, (gxx * vby - gxy * vbx) / det      # F = G⁻¹v
-    cos_half = (cg - mu * sg) / jnp.sqrt(1 + mu * mu)                           # cos(γ + atan μ)
+    jx, jy = ixx * vbx + ixy * vby, ixy * vbx + iyy * vby                      # F = G⁻¹v
     fb = jx * bx + jy * by
     jam = fb * jnp.abs(fb) >= (jx * jx + jy * jy) * cos_half * jnp.abs(cos_half)
 
-    def slide(nx: jnp.ndarray, ny: jnp.ndarray, sig: jnp.ndarray) -> tuple[jnp.ndarray, ...]:
-        dx, dy = sig * ny, -sig * nx                       # d = σ·t, t = (n_y, −n_x)
-        gx, gy = nx + mu * dx, ny + mu * dy                # the cone edge F/f
-        ax, ay = gxx * gx + gxy * gy, gxy * gx + gyy * gy  # G·(n + μd)
-        dt = ax * dy - ay * dx
-        f, sp = (vbx * dy - vby * dx) / dt, (ax * vby - ay * vbx) / dt
-        return (f >= 0) & (sp >= 0), f, sp, gx, gy
-
-    ok1, f1, sp1, g1x, g1y = slide(n1x, n1y, s1)
-    ok2, f2, sp2, g2x, g2y = slide(n2x, n2y, s2)
+    # sliding on face i: [G·g_i, d_i]·(f, s) = v
+    f1, sp1 = (vbx * d1y - vby * d1x) * r1, (a1x * vby - a1y * vbx) * r1
+    f2, sp2 = (vbx * d2y - vby * d2x) * r2, (a2x * vby - a2y * vbx) * r2
+    ok1, ok2 = (f1 >= 0) & (sp1 >= 0), (f2 >= 0) & (sp2 >= 0)
     free = (n1x * vbx + n1y * vby <= 0) & (n2x * vbx + n2y * vby <= 0)
     jam = ~free & jam
     sl1 = ~free & ~jam & ok1
     sl2 = ~free & ~jam & ~sl1 & ok2
     jam = ~(sl1 | sl2 | free)
+    # the mode as one number, stored once: −1 not at the corner, 0 free, 1 jammed, 2 sliding
+    # on face 1, 3 sliding on face 2
+    code = jnp.where(at, jnp.where(jam, 1.0, jnp.where(sl1, 2.0, jnp.where(sl2, 3.0, 0.0))), -1.0)
+    (code,) = fastmath.materialize(one, code.astype(px.dtype))
+    at, jam, sl1, sl2, free = code >= 0, code == 1, code == 2, code == 3, code == 0
     zero = jnp.zeros_like(jx)
     Fx = jnp.where(jam, jx, jnp.where(sl1, f1 * g1x, jnp.where(sl2, f2 * g2x, zero)))
     Fy = jnp.where(jam, jy, jnp.where(sl1, f1 * g1y, jnp.where(sl2, f2 * g2y, zero)))
+    Fx, Fy = fastmath.materialize(one, Fx, Fy)
     side = jnp.where(sl1, s1, s2)
     # reported force: jammed, F in the bisector frame [F·b, F·t_b]; sliding, [f, μσf] on that face
     fn = jnp.where(jam, Fx * bx + Fy * by, jnp.where(sl1, f1, jnp.where(sl2, f2, zero)))
@@ -168,21 +215,22 @@ def corner_solve(corners: jnp.ndarray, px: jnp.ndarray, py: jnp.ndarray, vbx: jn
 
 
 def corner_fix(k: CornerSolution, moved: tuple[jnp.ndarray, ...], fixed: tuple[jnp.ndarray, ...],
-               cth: jnp.ndarray, sth: jnp.ndarray) -> tuple[jnp.ndarray, ...]:
+               cth: jnp.ndarray, sth: jnp.ndarray, one: jnp.ndarray | float = 1.0) -> tuple[jnp.ndarray, ...]:
     """After a step that began at a concave corner, place the object from the faces, not the table.
 
     Jammed: the object is translated so that its corner is back under the pusher (the rigid
     motion's Euler error). Sliding on one face: translated along that face's normal so that
     the pusher is on the face's line. Free: left where the step put it (the table's
     interpolation bulges by up to 0.4 mm at a kink, so its radial correction would be wrong).
+    ``one`` (a traced 1) stores the depth once for both coordinates.
     """
     xb, yb, _, xc, yc = moved
     cx, cy = k.c
-    wcx, wcy = xb + cth * cx - sth * cy, yb + sth * cx + cth * cy          # corner in {S}
+    ox, oy = xc - (cth * cx - sth * cy), yc - (sth * cx + cth * cy)       # the object's origin under a jam
     nx, ny = k.snap_n
     wnx, wny = cth * nx - sth * ny, sth * nx + cth * ny                   # face normal in {S}
-    depth = wnx * (xc - wcx) + wny * (yc - wcy)                           # > 0: pusher inside the face
+    (depth,) = fastmath.materialize(one, wnx * (ox - xb) + wny * (oy - yb))   # > 0: pusher inside the face
     jam, slide, at = k.jam, k.slide, k.at
-    x_new = jnp.where(jam, xb + xc - wcx, jnp.where(slide, xb + depth * wnx, xb))
-    y_new = jnp.where(jam, yb + yc - wcy, jnp.where(slide, yb + depth * wny, yb))
+    x_new = jnp.where(jam, ox, jnp.where(slide, xb + depth * wnx, xb))
+    y_new = jnp.where(jam, oy, jnp.where(slide, yb + depth * wny, yb))
     return (jnp.where(at, x_new, fixed[0]), jnp.where(at, y_new, fixed[1]), *fixed[2:])
