@@ -178,6 +178,29 @@ def test_cost_to_go_leads_round_a_wall_and_not_through_it() -> None:
     assert not closed.connects(start)
 
 
+def test_guided_goal_distance_keeps_the_detour_round_discs() -> None:
+    """With discs and a guide (Task IV), ℓ is the larger of the way along the cost-to-go and the way round
+    each disc at the footprint's reach: behind a disc it is the detour, in the open the straight line."""
+    import jax.numpy as jnp
+
+    from dexpush.problem.cost import detour_length_sq, goal_distance_sq, guided_length_sq
+
+    tee = Shape.tee()
+    problem = TASKS["IV"].problem(tee)
+    scene = problem.scene
+    assert problem.guide is not None and scene.detour_radius.shape[0] == 3
+    rng = np.random.default_rng(3)
+    p = rng.uniform([-0.15, -0.25], [0.45, 0.15], (400, 2))
+    x = jnp.asarray(np.c_[p, np.full(len(p), problem.goal[2]), np.zeros((len(p), 2))], jnp.float32)
+    got = np.asarray(goal_distance_sq(x, scene, 0.0))
+    guided = np.asarray(guided_length_sq(x[:, 0], x[:, 1], scene))
+    detour = np.asarray(detour_length_sq(x[:, 0], x[:, 1], scene))
+    np.testing.assert_allclose(got, np.maximum(guided, detour), rtol=1e-6)
+    assert np.mean(detour > guided * 1.05) > 0.1          # the discs' detour matters somewhere
+    straight = np.sum((p - np.asarray(problem.goal[:2])) ** 2, -1)
+    assert np.all(got >= straight * (1 - 1e-5))
+
+
 # ---------------------------------------------------------------- tasks
 @pytest.mark.parametrize("name", ["rect", "tee", "ellipse"])
 def test_task_iv_starts_clear_and_its_goal_is_reachable(name: str) -> None:

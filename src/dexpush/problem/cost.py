@@ -118,9 +118,12 @@ def goal_distance_sq(x: State, scene: Scene, c: float) -> jnp.ndarray:
 
 def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: Scene, c: float,
                       guided: bool = True) -> jnp.ndarray:
+    has_detour = scene.detour_radius is not None and scene.detour_radius.shape[0] > 0
     if guided and scene.guide is not None and scene.guide.shape[0] > 0:
         length_sq = guided_length_sq(xb, yb, scene)
-    elif scene.detour_radius is not None and scene.detour_radius.shape[0] > 0:
+        if has_detour:
+            length_sq = jnp.maximum(length_sq, detour_length_sq(xb, yb, scene))
+    elif has_detour:
         length_sq = detour_length_sq(xb, yb, scene)
     else:
         return _distance_sq(xb, yb, th, scene.goal, c)
