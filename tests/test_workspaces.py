@@ -199,6 +199,11 @@ def test_guided_goal_distance_keeps_the_detour_round_discs() -> None:
     assert np.mean(detour > guided * 1.05) > 0.1          # the discs' detour matters somewhere
     straight = np.sum((p - np.asarray(problem.goal[:2])) ** 2, -1)
     assert np.all(got >= straight * (1 - 1e-5))
+    # an object with bounds of its own (a robot's reach) follows the cost-to-go alone
+    band = ((-0.2, -0.3), (0.5, -0.3), (0.5, 0.2), (-0.2, 0.2))
+    bounded = Problem(tee, problem.goal, problem.obstacles, problem.weights, polygons=problem.polygons,
+                      workspace=problem.workspace, object_workspace=band).scene
+    np.testing.assert_allclose(np.asarray(goal_distance_sq(x, bounded, 0.0)), guided, rtol=1e-6)
 
 
 # ---------------------------------------------------------------- tasks

@@ -121,7 +121,10 @@ def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: 
     has_detour = scene.detour_radius is not None and scene.detour_radius.shape[0] > 0
     if guided and scene.guide is not None and scene.guide.shape[0] > 0:
         length_sq = guided_length_sq(xb, yb, scene)
-        if has_detour:
+        # round discs the detour keeps the object a footprint's reach away, so that it passes in the heading
+        # it is pushed in; not where the object has bounds of its own (a robot's reach), which the detour's
+        # circles ignore (docs/workspaces.md#discs-keep-their-detour-2026-12-04)
+        if has_detour and (scene.object_bounds is None or scene.object_bounds.shape[0] == 0):
             length_sq = jnp.maximum(length_sq, detour_length_sq(xb, yb, scene))
     elif has_detour:
         length_sq = detour_length_sq(xb, yb, scene)
