@@ -110,8 +110,9 @@ def guided_length_sq(x: jnp.ndarray, y: jnp.ndarray, scene: Scene) -> jnp.ndarra
 
 def goal_distance_sq(x: State, scene: Scene, c: float) -> jnp.ndarray:
     """d²(q_sb, q_g) of eq. (9b–9c) for states x: the decoupled distance, whose position part is
-    ℓ² along the cost-to-go (:func:`guided_length_sq`) when the scene has one, round the detour discs
-    (:func:`detour_length_sq`) when it has those, and straight otherwise."""
+    ℓ² along the cost-to-go (:func:`guided_length_sq`) when the scene has one (the larger of it and the
+    detour where the scene also has discs and the object has no bounds of its own), round the detour
+    discs (:func:`detour_length_sq`) when it has those alone, and straight otherwise."""
     xb, yb, th, *_ = components(x)
     return _goal_distance_sq(xb, yb, th, scene, c)
 
