@@ -44,15 +44,7 @@ HORIZON = MPPISettings().horizon   # N_p, the steps of each sample's rollout
 
 def best_ms(fn, repeats: int, blocks: int = 5) -> float:
     """Best of ``blocks`` blocks' mean time per call of ``fn`` (ms), ``repeats`` calls a block."""
-    fn()
-    fn()
-    best = float("inf")
-    for _ in range(blocks):
-        t0 = time.perf_counter()
-        for _ in range(repeats):
-            fn()
-        best = min(best, (time.perf_counter() - t0) / repeats)
-    return best * 1e3
+    return best_ms_alternating({"fn": fn}, repeats, blocks)["fn"]
 
 
 def _planner(K: int, shape_name: str = "rect"):
