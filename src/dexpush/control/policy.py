@@ -128,7 +128,7 @@ def watch_progress(state: ControllerState, x: jnp.ndarray, *, contour: Contour, 
         return state, jnp.bool_(False)
     T = settings.mppi.control_period
     e_p = jnp.sqrt(goal_distance_sq(x, scene, 0.0))
-    e_th = jnp.abs(wrap_angle(x[2] - scene.goal[2], jnp))
+    e_th = jnp.abs(wrap_angle(x[2] - scene.goal[2], jnp)) * scene.heading_weight     # (0: a region of any heading)
     error = jnp.maximum(e_p / settings.stall.progress_m, e_th / np.radians(settings.stall.progress_deg))
     improved = error <= state.best - 1.0
     near = (e_p <= settings.stall.min_distance_m) & (e_th <= np.radians(settings.stall.min_heading_deg))

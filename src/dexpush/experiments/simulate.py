@@ -41,7 +41,7 @@ from dexpush.common.progress import progress_bar
 from dexpush.control.policy import ControllerSettings, ControllerState, policy_init, policy_step
 from dexpush.experiments.scenarios import MAX_STEPS
 from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C, Contour, integrate
-from dexpush.problem.problem import Problem, is_success
+from dexpush.problem.problem import Problem, reached
 from dexpush.problem.scene import Scene
 from dexpush.world.model_plant import check_no_tunnelling
 
@@ -105,7 +105,7 @@ def _lane_step(lane: Lane, estimate: jnp.ndarray, max_steps: jnp.ndarray, contou
     policy, u, _ = policy_step(lane.policy, lane.x, estimate, contour=contour, scene=scene, settings=settings)
     x1 = integrate(contour, lane.x, u, jnp.float32(settings.mppi.control_period), plant_params, plant_mu,
                    substeps)
-    ok = is_success(x1[:3], scene.goal, jnp, *tolerance)
+    ok = reached(x1[:3], scene, *tolerance)
     steps = lane.steps + 1
     new = Lane(x1, policy, steps, ok | (steps >= max_steps), ok)
     out = jax.tree.map(lambda old, nxt: jnp.where(lane.done, old, nxt), lane, new)

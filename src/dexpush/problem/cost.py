@@ -23,12 +23,14 @@ import jax.numpy as jnp
 
 from dexpush.common import fastmath
 from dexpush.model.cgvmm import State, components
+from dexpush.problem.goal_region import region_distance_sq
 from dexpush.problem.guidance import GRID_STRETCH
 from dexpush.problem.obstacles import clearance, nearest_obstacle_distances, overlaps, region_gaps
 from dexpush.problem.scene import Scene
 from dexpush.problem.weights import CostWeights
 
-__all__ = ["MIN_PLAN_MARGIN_M", "detour_length_sq", "goal_distance_sq", "guided_length_sq", "obstacle_cost",
+__all__ = ["MIN_PLAN_MARGIN_M", "REGION_COST_CORNERS",
+           "detour_length_sq", "goal_distance_sq", "guided_length_sq", "obstacle_cost",
            "plan_margin", "running_cost", "terminal_cost"]
 
 
@@ -112,13 +114,22 @@ def goal_distance_sq(x: State, scene: Scene, c: float) -> jnp.ndarray:
     """d²(q_sb, q_g) of eq. (9b–9c) for states x: the decoupled distance, whose position part is
     ℓ² along the cost-to-go (:func:`guided_length_sq`) when the scene has one (the larger of it and the
     detour where the scene also has discs and the object has no bounds of its own), round the detour
-    discs (:func:`detour_length_sq`) when it has those alone, and straight otherwise."""
+    discs (:func:`detour_length_sq`) when it has those alone, and straight otherwise. For a goal region
+    (:mod:`dexpush.problem.goal_region`) the position part is the squared distance to its aimed part
+    (:func:`dexpush.problem.goal_region.region_distance_sq`), and the heading part counts only where the region
+    has a heading."""
     xb, yb, th, *_ = components(x)
     return _goal_distance_sq(xb, yb, th, scene, c)
 
 
 def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: Scene, c: float,
                       guided: bool = True) -> jnp.ndarray:
+    if scene.has_region:
+        # the footprint's own corners, every k-th of a long outline (at most REGION_COST_CORNERS): their support
+        # is never more than the footprint's, so the aim is kept (the ellipse's inscribed 32-gon: within 0.5 mm)
+        corners = scene.region_corners[::-(-scene.region_corners.shape[0] // REGION_COST_CORNERS)]
+        length_sq = region_distance_sq(xb, yb, th, scene.reach, scene.keep, scene.keep_point, corners, jnp)
+        return length_sq + scene.heading_weight * c * (1.0 - fastmath.cos(th - scene.goal[2]))
     has_detour = scene.detour_radius is not None and scene.detour_radius.shape[0] > 0
     if guided and scene.guide is not None and scene.guide.shape[0] > 0:
         length_sq = guided_length_sq(xb, yb, scene)
@@ -133,6 +144,9 @@ def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: 
         return _distance_sq(xb, yb, th, scene.goal, c)
     return length_sq + c * (1.0 - fastmath.cos(th - scene.goal[2]))
 
+
+#: the most footprint corners a goal region's cost reads (:func:`goal_distance_sq`)
+REGION_COST_CORNERS = 32
 
 #: the least margin (m) a plan keeps (:func:`plan_margin`): below it the depth fraction is too steep
 MIN_PLAN_MARGIN_M = 1e-4

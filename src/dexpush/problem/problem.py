@@ -22,14 +22,24 @@ from dexpush.common.checks import check_positive, checked_vector
 from dexpush.common.se2 import pose_error
 from dexpush.model.cgvmm import Contour
 from dexpush.model.shape import Shape
+from dexpush.problem.goal_region import (
+    AtWall,
+    GoalRegion,
+    Overhang,
+    PoseBox,
+    RegionRows,
+    dropped,
+    in_region,
+    region_error,
+)
 from dexpush.problem.guidance import CostToGo, cost_to_go
 from dexpush.problem.obstacles import clearance_jit, collides_jit
-from dexpush.problem.regions import convex_polygon, workspace_halfplanes
+from dexpush.problem.regions import convex_polygon, halfplane_corners, workspace_halfplanes
 from dexpush.problem.scene import Scene, obstacle_array
 from dexpush.problem.weights import CostWeights
 
 __all__ = ["COST_OUTLINE_EDGES", "COST_PIECE_CORNERS", "SUCCESS_HEADING_DEG", "SUCCESS_POSITION_M", "Problem",
-           "is_success"]
+           "is_success", "reached"]
 
 #: the most edges of the footprint outline the cost's disc terms see (a convex footprint with more, an
 #: ellipse's 256, is replaced by a circumscribed polygon of this many): the terms are unrolled over edges ×
@@ -52,6 +62,16 @@ def is_success(object_pose: object, goal: object, xp: Any = np, position_m: floa
     return (pos < position_m) & (head < heading_deg)
 
 
+def reached(object_pose: object, scene: Scene, position_m: float, heading_deg: float, xp: Any = jnp) -> Any:
+    """The success test on ``scene``'s goal: :func:`is_success` for a goal pose, membership of the region
+    (:func:`dexpush.problem.goal_region.in_region`, the heading within ``heading_deg`` where it counts) for a
+    goal region."""
+    if scene.has_region:
+        return in_region(object_pose, scene.goal, scene.reach, scene.keep, scene.keep_point, scene.region_corners,
+                         scene.heading_weight, heading_deg, xp)
+    return is_success(object_pose, scene.goal, xp, position_m, heading_deg)
+
+
 @dataclass(frozen=True, eq=False)
 class Problem:
     """Push ``shape`` to the pose ``goal`` (x, y, θ in the world frame) without touching the disc
@@ -63,6 +83,12 @@ class Problem:
     with ``weights``;
     success is a position error below ``tolerance_m`` and a heading error below ``tolerance_deg``.
     The goal's footprint must fit: a ``ValueError`` says which obstacle it touches.
+
+    ``goal`` may instead be a region (:mod:`dexpush.problem.goal_region`: :class:`Overhang`, :class:`AtWall`,
+    :class:`PoseBox`), kept as ``region``: then ``goal`` becomes a pose in it (the controller's frame origin and
+    the plots' marker), the cost's goal distance is to the region, success is being in it, and for an
+    :class:`Overhang` the footprint may cross that workspace edge (the pusher may not) while its centre of mass
+    crossing it is a drop (:meth:`dropped`), which fails a trial as a touch does.
 
     Derived once, on construction: ``contour`` (the inflated contour's table), ``scene`` (the
     cost's view, world frame, with an outline of at most :data:`COST_OUTLINE_EDGES` edges),
@@ -87,6 +113,9 @@ class Problem:
     pad_to: tuple[int, int] = (0, 0)
     object_workspace: tuple[tuple[float, float], ...] | None = None
     pusher_workspace: tuple[tuple[float, float], ...] | None = None
+    region: GoalRegion | None = None
+    #: the region's rows in the world frame (:class:`dexpush.problem.goal_region.RegionRows`); None for a goal pose
+    region_rows: RegionRows | None = field(init=False, repr=False)
     contour: Contour = field(init=False, repr=False)
     scene: Scene = field(init=False, repr=False)
     origin: np.ndarray = field(init=False, repr=False)
@@ -99,7 +128,11 @@ class Problem:
             raise TypeError(f"shape must be a dexpush.Shape, got {type(self.shape).__name__}")
         if not isinstance(self.weights, CostWeights):
             raise ValueError(f"weights must be a CostWeights, got {self.weights!r}")
-        goal = checked_vector("goal", self.goal, 3)
+        region = self.region
+        if isinstance(self.goal, Overhang | AtWall | PoseBox):
+            region = self.goal
+        elif region is not None and not isinstance(region, Overhang | AtWall | PoseBox):
+            raise ValueError(f"region must be an Overhang, AtWall or PoseBox, got {region!r}")
         discs = obstacle_array(self.obstacles)
         check_positive("tolerance_m", self.tolerance_m, "m")
         check_positive("tolerance_deg", self.tolerance_deg, "degrees")
@@ -107,7 +140,14 @@ class Problem:
         bounds, corners = None, None
         if self.workspace is not None:
             bounds = workspace_halfplanes(self.workspace)
-            corners = _corners(bounds)
+            corners = halfplane_corners(bounds)
+        goal_rows = None
+        if region is not None:
+            goal_rows = region.rows(self.shape, bounds, polys, self.weights.obstacle_margin_m)
+            goal = region.nominal(self.shape, bounds, polys, self.weights.obstacle_margin_m)
+        else:
+            goal = checked_vector("goal", self.goal, 3)
+        if bounds is not None and not isinstance(region, Overhang):
             self._check_goal_inside(goal, bounds)    # before the guidance, whose grid the goal must lie on
         own = {name: None if getattr(self, name) is None else workspace_halfplanes(getattr(self, name))
                for name in ("object_workspace", "pusher_workspace")}     # the object's and the pusher's own
@@ -118,19 +158,26 @@ class Problem:
         put(self, "polygons", tuple(tuple((float(x), float(y)) for x, y in p) for p in polys))
         put(self, "workspace", None if corners is None else tuple((float(x), float(y)) for x, y in corners))
         for name, rows in own.items():
-            put(self, name, None if rows is None else tuple((float(x), float(y)) for x, y in _corners(rows)))
+            put(self, name, None if rows is None else tuple((float(x), float(y)) for x, y in halfplane_corners(rows)))
         object_bounds, pusher_bounds = own["object_workspace"], own["pusher_workspace"]
+        if goal_rows is not None and goal_rows.edge:
+            # an overhang's edge bounds the pusher alone: the footprint may cross it
+            edge = np.all(np.isclose(bounds, goal_rows.keep[:1, :3]), axis=1)
+            pusher_bounds = bounds[edge] if pusher_bounds is None else np.concatenate([pusher_bounds, bounds[edge]])
+            bounds = bounds[~edge]
+        put(self, "region", region)
+        put(self, "region_rows", goal_rows)
         guide = None
         # disc-only scenes keep the detour round the discs (docs/workspaces.md#global-guidance: on Task III
         # the cost-to-go, whose footprint may turn to fit, led the T into the gap beside the disc)
-        if self.weights.guidance and (polys or bounds is not None):
+        if self.weights.guidance and (polys or bounds is not None) and region is None:
             guide = cost_to_go(self.shape.polygons, self.shape.bounding_radius, goal, discs, polys, corners,
                                self.weights.obstacle_margin_m, self.weights.guidance_cell_m)
         put(self, "guide", guide)
         put(self, "contour", Contour.of(self.shape))
         put(self, "scene", Scene.make(self.shape, goal, discs, self.weights, COST_OUTLINE_EDGES, polys, bounds,
                                       guide, self.pad_to, COST_PIECE_CORNERS, object_bounds,
-                                      pusher_bounds))
+                                      pusher_bounds, goal_rows))
         put(self, "origin", origin)
         shift = origin * [1.0, 1.0, 0.0]
         # a half-plane n·p ≤ o seen from the origin: n·(p − origin) ≤ o − n·origin
@@ -141,10 +188,12 @@ class Problem:
                                             tuple(p - origin[:2] for p in polys), seen_from_origin(bounds),
                                             None if guide is None else guide.shifted(origin), self.pad_to,
                                             COST_PIECE_CORNERS, seen_from_origin(object_bounds),
-                                            seen_from_origin(pusher_bounds)))
+                                            seen_from_origin(pusher_bounds),
+                                            None if goal_rows is None else goal_rows.shifted(origin)))
         put(self, "judge_scene", Scene.make(self.shape, goal, discs, self.weights, None, polys, bounds,
-                                            pad_to=self.pad_to))
-        self._check_goal_fits()
+                                            pad_to=self.pad_to, region=goal_rows))
+        if region is None or isinstance(region, PoseBox):     # (a region's own pose is only a marker)
+            self._check_goal_fits()
 
     def _check_goal_fits(self) -> None:
         """A ``ValueError`` when the goal's footprint touches an obstacle (the workspace is checked first)."""
@@ -166,21 +215,55 @@ class Problem:
                              f"workspace (by {out * 1e3:.1f} mm): move the goal or widen the workspace")
 
     @property
+    def table(self) -> tuple[float, float, float, float] | None:
+        """With an :class:`Overhang` goal, the table top (x_lo, y_lo, x_hi, y_hi) that holds the object up (the
+        workspace's bounding box: a physics plant's table, whose edge the object can fall from); else None."""
+        if self.region_rows is None or not self.region_rows.edge:
+            return None
+        c = np.asarray(self.workspace)
+        return (*(float(v) for v in c.min(0)), *(float(v) for v in c.max(0)))
+
+    @property
     def has_obstacles(self) -> bool:
         """Whether anything can be touched: a disc, a polygon or the workspace's boundary."""
         return bool(self.obstacles or self.polygons or self.workspace is not None)
 
     def success(self, object_pose: object, xp: Any = np) -> Any:
-        """Whether ``object_pose`` (..., 3) is within the tolerances of the goal."""
-        return is_success(object_pose, self.scene.goal if xp is jnp else np.asarray(self.goal), xp,
-                          self.tolerance_m, self.tolerance_deg)
+        """Whether ``object_pose`` (..., 3) is within the tolerances of the goal (in the goal region)."""
+        if xp is jnp:
+            return reached(object_pose, self.scene, self.tolerance_m, self.tolerance_deg, jnp)
+        q = np.asarray(object_pose, np.float64)
+        if self.region_rows is None:
+            return is_success(q, np.asarray(self.goal), np, self.tolerance_m, self.tolerance_deg)
+        r = self.region_rows
+        return in_region(q, self.goal, r.reach, r.keep, r.point, np.concatenate(self.shape.polygons),
+                         float(r.heading), self.tolerance_deg, np)
+
+    def goal_error(self, object_pose: object) -> tuple[float, float]:
+        """(m, degrees): how far ``object_pose`` (3,) is from the goal pose, or for a goal region how far it is
+        from meeting the region's rows (zero inside) and its heading error where the heading counts (else 0)."""
+        q = np.asarray(object_pose, np.float64)
+        pos, head = pose_error(q, np.asarray(self.goal))
+        if self.region_rows is None:
+            return float(pos), float(head)
+        r = self.region_rows
+        out = region_error(q, r.reach, r.keep, r.point, np.concatenate(self.shape.polygons), np)
+        return max(float(out), 0.0), float(head) if r.heading else 0.0
+
+    def dropped(self, states: object) -> np.ndarray:
+        """(...,) bool: with an :class:`Overhang` goal, whether the object's centre of mass is past the table's
+        edge in states (..., ≥ 3) (it falls); all False otherwise."""
+        x = np.asarray(states, np.float64)
+        return np.asarray(dropped(x[..., :3], self.region_rows, np), bool)
 
     def collides(self, states: object) -> np.ndarray:
-        """(...,) bool: the object's footprint or the pusher touches an obstacle in states (..., 5)."""
+        """(...,) bool: the object's footprint or the pusher touches an obstacle in states (..., 5), or the object
+        drops off the table (:meth:`dropped`)."""
         x = jnp.asarray(states, jnp.float32)
         if not self.has_obstacles:
             return np.zeros(x.shape[:-1], bool)
-        return np.asarray(collides_jit(x, self.judge_scene))
+        hit = np.asarray(collides_jit(x, self.judge_scene))
+        return hit | self.dropped(states) if self.region_rows is not None else hit
 
     def clearance(self, states: object) -> np.ndarray:
         """(...,) the smallest gap (m) between an obstacle and the object or the pusher; +inf without obstacles."""
@@ -200,16 +283,7 @@ class Problem:
 
     def with_weights(self, weights: CostWeights) -> Problem:
         """The same problem at the cost ``weights``."""
-        return Problem(self.shape, self.goal, self.obstacles, weights, self.tolerance_m, self.tolerance_deg,
-                       self.polygons, self.workspace, self.pad_to, self.object_workspace,
-                       self.pusher_workspace)
-
-
-def _corners(bounds: np.ndarray) -> np.ndarray:
-    """The corners of a convex polygon from its :func:`dexpush.problem.regions.halfplanes` rows (each corner
-    where a row's line meets the next's)."""
-    n, o = bounds[:, :2], bounds[:, 2]
-    n1, o1 = np.roll(n, -1, axis=0), np.roll(o, -1)
-    det = n[:, 0] * n1[:, 1] - n[:, 1] * n1[:, 0]
-    return np.stack([(o * n1[:, 1] - o1 * n[:, 1]) / det, (n[:, 0] * o1 - n1[:, 0] * o) / det], -1)
+        return Problem(self.shape, self.goal if self.region is None else self.region, self.obstacles, weights,
+                       self.tolerance_m, self.tolerance_deg, self.polygons, self.workspace, self.pad_to,
+                       self.object_workspace, self.pusher_workspace)
 

@@ -18,7 +18,8 @@ import numpy as np
 from dexpush.common.checks import check_positive, checked_vector
 from dexpush.model.polygons import as_polygon, is_convex
 
-__all__ = ["MAX_POLYGON_CORNERS", "box", "clip_convex", "convex_polygon", "halfplanes", "nearest_on_outline",
+__all__ = ["MAX_POLYGON_CORNERS", "box", "clip_convex", "convex_polygon", "halfplane_corners", "halfplanes",
+           "nearest_on_outline",
            "point_gap", "wall", "workspace_halfplanes"]
 
 #: the most corners an obstacle polygon or a workspace may have (each costs every rollout step a few
@@ -87,6 +88,15 @@ def workspace_halfplanes(vertices: object) -> np.ndarray:
                              f"got {tuple(float(v) for v in vertices)}")
         vertices = [[lo_x, lo_y], [hi_x, lo_y], [hi_x, hi_y], [lo_x, hi_y]]
     return halfplanes(convex_polygon(vertices, "workspace"))
+
+
+def halfplane_corners(bounds: np.ndarray) -> np.ndarray:
+    """The corners of a convex polygon from its :func:`halfplanes` rows (each corner where a row's line meets
+    the next's)."""
+    n, o = bounds[:, :2], bounds[:, 2]
+    n1, o1 = np.roll(n, -1, axis=0), np.roll(o, -1)
+    det = n[:, 0] * n1[:, 1] - n[:, 1] * n1[:, 0]
+    return np.stack([(o * n1[:, 1] - o1 * n[:, 1]) / det, (n[:, 0] * o1 - n1[:, 0] * o) / det], -1)
 
 
 def nearest_on_outline(points: np.ndarray, polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

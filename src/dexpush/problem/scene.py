@@ -14,6 +14,7 @@ import numpy as np
 from dexpush.model.convex_pieces import convex_pieces
 from dexpush.model.polygons import circumscribed, is_convex
 from dexpush.model.shape import Shape
+from dexpush.problem.goal_region import RegionRows
 from dexpush.problem.guidance import CostToGo
 from dexpush.problem.regions import halfplanes
 from dexpush.problem.weights import CostWeights
@@ -67,6 +68,19 @@ class Scene:
     object_bounds: jnp.ndarray = None  # type: ignore[assignment]
     #: (H'', 3) half-planes the pusher alone stays within (a robot arm's reach); H'' may be 0
     pusher_bounds: jnp.ndarray = None  # type: ignore[assignment]
+    #: a goal region (:mod:`dexpush.problem.goal_region`): (G, 4) reach rows and (K, 4) keep rows [n_x, n_y, o, δ],
+    #: the (2,) point in {B} the keep rows hold, the footprint's (C, 2) corners in {B} its success test reads, and
+    #: 1 where the heading counts (0: any heading); G = K = 0 for a goal pose
+    reach: jnp.ndarray = None  # type: ignore[assignment]
+    keep: jnp.ndarray = None  # type: ignore[assignment]
+    keep_point: jnp.ndarray = None  # type: ignore[assignment]
+    region_corners: jnp.ndarray = None  # type: ignore[assignment]
+    heading_weight: jnp.ndarray = None  # type: ignore[assignment]
+
+    @property
+    def has_region(self) -> bool:
+        """Whether the goal is a region (:mod:`dexpush.problem.goal_region`) rather than a pose."""
+        return bool(self.reach.shape[0] or self.keep.shape[0])
 
     @property
     def has_obstacles(self) -> bool:
@@ -79,7 +93,8 @@ class Scene:
              max_edges: int | None = None, polygons: tuple[np.ndarray, ...] = (),
              bounds: np.ndarray | None = None, guide: CostToGo | None = None,
              pad_to: tuple[int, int] = (0, 0), max_piece_corners: int = JUDGE_PIECE_CORNERS,
-             object_bounds: np.ndarray | None = None, pusher_bounds: np.ndarray | None = None) -> Scene:
+             object_bounds: np.ndarray | None = None, pusher_bounds: np.ndarray | None = None,
+             region: RegionRows | None = None) -> Scene:
         """The cost's view of a task; with ``max_edges``, the footprint's outline has at most that many
         edges where the footprint is convex (:meth:`dexpush.model.shape.Shape.outline_edges`), and its
         convex pieces (what the polygon gaps see) at most ``max_piece_corners`` corners.
@@ -87,7 +102,8 @@ class Scene:
         :func:`dexpush.problem.regions.convex_polygon`), ``bounds`` the workspace's half-planes
         (:func:`dexpush.problem.regions.workspace_halfplanes`), ``object_bounds`` and ``pusher_bounds`` the
         half-planes that bound the object alone (where a robot's pusher can get round it) and the pusher alone
-        (the arm's reach), ``guide`` the cost-to-go, all in the
+        (the arm's reach), ``guide`` the cost-to-go, ``region`` a goal region's rows (the goal distance is then
+        to the region, with no detour: :func:`dexpush.problem.cost.goal_distance_sq`), all in the
         frame of ``goal``. ``pad_to`` (discs, polygons): add inert ones 1 km away up to these counts, so that
         the problems of one family (a clutter benchmark's seeds) have arrays of one shape and share compiled code.
 
@@ -111,7 +127,7 @@ class Scene:
         a, b = shape.edges if max_edges is None else shape.outline_edges(max_edges)
         r_s = w.r_s if w.r_s_clearance is None else max(w.r_s, shape.bounding_radius + w.r_s_clearance)
         rho = np.zeros(0)
-        if w.detour and len(obs):
+        if w.detour and len(obs) and region is None:
             # no orientation of the footprint reaches an obstacle while the reference stays this far
             # from it; capped at the goal's distance, so that the goal itself is never inside a detour disc
             reach = float(np.max(np.hypot(a[:, 0], a[:, 1])))
@@ -124,17 +140,25 @@ class Scene:
         values, lo, cell = (np.zeros((0, 0)), np.zeros(2), 1.0) if guide is None else (guide.values, guide.lo,
                                                                                            guide.cell)
         f32 = partial(jnp.asarray, dtype=jnp.float32)
+        if region is None:
+            reach, keep, point, heading = np.zeros((0, 4)), np.zeros((0, 4)), np.zeros(2), 1.0
+            corners = np.zeros((0, 2))
+        else:
+            reach, keep, point, heading = region.reach, region.keep, region.point, float(region.heading)
+            corners = np.concatenate(shape.polygons)
         return Scene(jnp.asarray(g), jnp.asarray(obs), jnp.asarray(a), jnp.asarray(b), jnp.asarray(r_s),
                      shape.pusher_radius, jnp.asarray(rho), jnp.asarray(w.obstacle_margin_m),
                      jnp.asarray(poly), jnp.asarray(planes), jnp.asarray(bounds), jnp.asarray(pieces),
                      jnp.asarray(piece_planes), f32(values), f32(lo), f32(cell), jnp.asarray(object_bounds),
-                     jnp.asarray(pusher_bounds))
+                     jnp.asarray(pusher_bounds), jnp.asarray(reach), jnp.asarray(keep), jnp.asarray(point),
+                     jnp.asarray(corners), jnp.asarray(heading))
 
 
 jax.tree_util.register_dataclass(
     Scene, data_fields=["goal", "obstacles", "edge_a", "edge_b", "r_s", "detour_radius", "margin", "polygons",
                         "polygon_planes", "bounds", "pieces", "piece_planes", "guide", "guide_lo", "guide_cell",
-                        "object_bounds", "pusher_bounds"],
+                        "object_bounds", "pusher_bounds", "reach", "keep", "keep_point", "region_corners",
+                        "heading_weight"],
     meta_fields=["pusher_radius"])
 
 

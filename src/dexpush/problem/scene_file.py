@@ -1,8 +1,10 @@
-"""Scene files: the obstacles, walls and workspace of a problem in TOML (:func:`load_scene`, :class:`Layout`).
+"""Scene files: a problem's obstacles, walls, workspace and goal region in TOML (:func:`load_scene`,
+:class:`Layout`).
 
 A scene file (docs/workspaces.md#scene-files) holds any of::
 
     workspace = [-0.5, -0.5, 0.5, 0.5]          # x_lo, y_lo, x_hi, y_hi (m), or [[x, y], ...] corners
+    goal_region = "overhang:+x,0.06"             # optional: a goal region (docs/goal_regions.md)
 
     [[disc]]
     centre = [0.2, 0.1]
@@ -33,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dexpush.problem.goal_region import GoalRegion, parse_region
 from dexpush.problem.regions import box, convex_polygon, wall, workspace_halfplanes
 
 __all__ = ["Layout", "load_scene"]
@@ -50,11 +53,14 @@ class Layout:
     obstacles: tuple[tuple[float, float, float], ...] = ()
     polygons: tuple[tuple[tuple[float, float], ...], ...] = ()
     workspace: tuple | None = None
+    #: a goal region (:mod:`dexpush.problem.goal_region`), or None
+    region: GoalRegion | None = None
 
     def plus(self, other: Layout) -> Layout:
-        """Both layouts' obstacles; ``other``'s workspace where it has one."""
+        """Both layouts' obstacles; ``other``'s workspace and goal region where it has them."""
         return Layout(self.obstacles + other.obstacles, self.polygons + other.polygons,
-                      other.workspace if other.workspace is not None else self.workspace)
+                      other.workspace if other.workspace is not None else self.workspace,
+                      other.region if other.region is not None else self.region)
 
     @classmethod
     def from_flags(cls, boxes: object = (), walls: object = (), workspace: object = None) -> Layout:
@@ -85,9 +91,9 @@ def load_scene(path: str | Path) -> Layout:
         raise ValueError(f"scene file {path}: cannot read it ({exc.strerror or exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"scene file {path}: not valid TOML ({exc})") from None
-    unknown = sorted(set(data) - {"workspace", *_KINDS})
+    unknown = sorted(set(data) - {"workspace", "goal_region", *_KINDS})
     if unknown:
-        raise ValueError(f"scene file {path}: unknown key {unknown[0]!r}; a scene has workspace and "
+        raise ValueError(f"scene file {path}: unknown key {unknown[0]!r}; a scene has workspace, goal_region and "
                          f"[[{']], [['.join(_KINDS)}]] tables")
     discs, polys = [], []
     for kind, keys in _KINDS.items():
@@ -125,7 +131,15 @@ def load_scene(path: str | Path) -> Layout:
         except (ValueError, TypeError) as exc:
             raise ValueError(f"scene file {path}: workspace: {exc}") from None
         workspace = tuple(tuple(map(float, c)) if isinstance(c, list) else float(c) for c in workspace)
-    return Layout(tuple(discs), tuple(polys), workspace)
+    region = data.get("goal_region")
+    if region is not None:
+        if not isinstance(region, str):
+            raise ValueError(f"scene file {path}: goal_region must be a string such as \"overhang:+x,0.06\"")
+        try:
+            region = parse_region(region)
+        except ValueError as exc:
+            raise ValueError(f"scene file {path}: {exc}") from None
+    return Layout(tuple(discs), tuple(polys), workspace, region)
 
 
 def _corners(corners: np.ndarray) -> tuple[tuple[float, float], ...]:
