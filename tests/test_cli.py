@@ -54,8 +54,11 @@ def test_physics_plant_with_a_realistic_camera_end_to_end(tmp_path: Path) -> Non
 
 
 @pytest.mark.parametrize("args, message", [
-    (["run", "--task", "V"], "unknown task 'V'"),
-    (["run", "--shape", "star"], "shape must be one of rect, tee, ellipse or a .toml shape file"),
+    (["run", "--task", "VI"], "unknown task 'VI'"),
+    (["run", "--shape", "star"], "shape must be one of rect, tee, ellipse, plate or a .toml shape file"),
+    (["run", "--goal-region", "overhang:+x,0.06"], "an overhang goal needs a workspace"),
+    (["run", "--goal-region", "ledge:+x,0.06"], "goal region 'ledge:+x,0.06': expected"),
+    (["run", "--goal", "0.1,0.2,0", "--goal-region", "box:0,0,0,0.1,0.1"], "a goal pose or a goal region, not both"),
     (["run", "--shape", "missing.toml"], "shape file 'missing.toml' does not exist"),
     (["run", "--goal", "0.1,0.2"], "--goal: expected 3 comma-separated numbers"),
     (["run", "--plant", "physics", "--mu", "0.4"], "true_params and mu set the model plant"),

@@ -21,8 +21,9 @@ def test_tasks_match_the_spec() -> None:
     assert get_task("2").goal == pytest.approx((0.0, 0.0, np.pi / 2))
     assert get_task("obstacle").obstacles == ((0.30, 0.0, 0.05),)
     assert len(get_task("iv").polygons) == 4 and len(get_task("confined").obstacles) == 3
-    with pytest.raises(ValueError, match="unknown task 'V'"):
-        get_task("V")
+    assert get_task("5").region is not None and get_task("edge").workspace == (-0.30, -0.35, 0.45, 0.35)
+    with pytest.raises(ValueError, match="unknown task 'VI'"):
+        get_task("VI")
 
 
 @pytest.mark.parametrize("name", ["rect", "tee"])

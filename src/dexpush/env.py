@@ -82,6 +82,9 @@ class _Goals:
     """The goal setting shared by both envs: fixed, the task's, or drawn at each reset; and the gate."""
 
     def __init__(self, task: Task, goal: object, goal_range: object, position_m: float, heading_deg: float) -> None:
+        if task.region is not None:
+            raise ValueError(f"the Gym envs take goal poses; task {task.key}'s goal is a region "
+                             "(docs/goal_regions.md): run it with dexpush run or dexpush bench")
         if isinstance(goal, str) and goal != "random":
             raise ValueError(f"goal must be None, 'random' or a pose (x, y, θ), got {goal!r}")
         self.random = goal == "random"
@@ -140,6 +143,8 @@ class PushEnv(gym.Env):
                     SUCCESS_POSITION_M, SUCCESS_HEADING_DEG):
                 raise ValueError("a Problem holds the shape, the goal and the success test: give them in it, not "
                                  "beside it")
+            if problem.region is not None:
+                raise ValueError("the Gym envs take goal poses; this Problem's goal is a region (docs/goal_regions.md)")
             shape, goal = problem.shape, problem.goal
             success_position_m, success_heading_deg = problem.tolerance_m, problem.tolerance_deg
         if render_mode not in (None, "rgb_array"):

@@ -44,7 +44,7 @@ def _draw_pose(ax: plt.Axes, shape: Shape, pose: np.ndarray, **kw: object) -> No
 
 def _setup_axes(ax: plt.Axes, shape: Shape, states: np.ndarray, goal: np.ndarray,
                 obstacles: np.ndarray, goal_label: str = "goal", polygons: tuple = (),
-                workspace: np.ndarray | None = None) -> None:
+                workspace: np.ndarray | None = None, region: object = None) -> None:
     pts = np.concatenate([states[:, :2], states[:, 3:], goal[None, :2]]
                          + ([] if workspace is None else [np.asarray(workspace)]))
     pad = shape.bounding_radius + 0.03
@@ -55,7 +55,20 @@ def _setup_axes(ax: plt.Axes, shape: Shape, states: np.ndarray, goal: np.ndarray
     ax.set_ylabel("y (m)")
     ax.grid(alpha=0.3)
     draw_obstacles(ax, obstacles, polygons, workspace)
+    if region is not None:
+        draw_goal_region(ax, region)
+        goal_label = "a pose in the goal region"
     _draw_pose(ax, shape, goal, fill=False, ec="#d62728", lw=1.5, ls="--", label=goal_label)
+
+
+def draw_goal_region(ax: plt.Axes, region: object) -> None:
+    """The lines of a goal region's rows (:class:`dexpush.problem.goal_region.RegionRows`) on ``ax``: where the
+    footprint must reach (green, dashed) and what its point must stay behind (red, dotted)."""
+    for rows, style, label in ((region.reach, dict(color="#2ca02c", ls="--"), "goal: the footprint reaches"),
+                               (region.keep, dict(color="#d62728", ls=":"), "goal: the centre stays behind")):
+        for i, (nx, ny, o, _) in enumerate(np.asarray(rows).reshape(-1, 4)):
+            at = np.array([nx, ny]) * o
+            ax.axline(at, at + np.array([-ny, nx]), lw=1.3, label=label if i == 0 else None, **style)
 
 
 def draw_obstacles(ax: plt.Axes, obstacles: np.ndarray, polygons: tuple = (),
@@ -85,13 +98,14 @@ def _finish(fig: plt.Figure, ax: plt.Axes, title: str, path: str | os.PathLike |
 def plot_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.ndarray,
                  obstacles: np.ndarray | None = None, title: str = "", outlines: int = 12,
                  path: str | os.PathLike | None = None, polygons: tuple = (),
-                 workspace: np.ndarray | None = None) -> plt.Figure:
+                 workspace: np.ndarray | None = None, region: object = None) -> plt.Figure:
     """Object outlines along the path, its reference path, the pusher path coloured by mode; the
-    obstacles (discs, ``polygons``) and the ``workspace`` boundary."""
+    obstacles (discs, ``polygons``), the ``workspace`` boundary and a goal ``region``'s lines."""
     states = np.asarray(states)
     obstacles = np.zeros((0, 3)) if obstacles is None else np.asarray(obstacles).reshape(-1, 3)
     fig, ax = plt.subplots(figsize=(7, 5.5))
-    _setup_axes(ax, shape, states, np.asarray(goal), obstacles, polygons=polygons, workspace=workspace)
+    _setup_axes(ax, shape, states, np.asarray(goal), obstacles, polygons=polygons, workspace=workspace,
+                region=region)
     idx = np.unique(np.linspace(0, len(states) - 1, outlines).astype(int))
     for j, i in enumerate(idx):
         _draw_pose(ax, shape, states[i], fill=True, fc="0.6", ec="0.2", alpha=0.12 + 0.25 * j / len(idx), lw=0.8)
@@ -111,13 +125,13 @@ def plot_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.n
 def plot_condition(shape: Shape, trajectories: list[np.ndarray], successes: list[bool], goal: np.ndarray,
                    obstacles: np.ndarray | None = None, title: str = "",
                    path: str | os.PathLike | None = None, polygons: tuple = (),
-                   workspace: np.ndarray | None = None) -> plt.Figure:
+                   workspace: np.ndarray | None = None, region: object = None) -> plt.Figure:
     """All trials of one benchmark condition: object reference paths (green: success, red:
     failure), start and final footprints, pusher paths faint, goal and obstacles."""
     obstacles = np.zeros((0, 3)) if obstacles is None else np.asarray(obstacles).reshape(-1, 3)
     fig, ax = plt.subplots(figsize=(7, 5.5))
     _setup_axes(ax, shape, np.concatenate(trajectories), np.asarray(goal), obstacles, polygons=polygons,
-                workspace=workspace)
+                workspace=workspace, region=region)
     for k, (X, ok) in enumerate(zip(trajectories, successes)):
         color = "#2ca02c" if ok else "#d62728"
         ax.plot(X[:, 3], X[:, 4], "-", color="0.5", lw=0.4, alpha=0.35, label="pusher paths" if k == 0 else None)
@@ -194,7 +208,7 @@ def plot_guidance(shape: Shape, problem: object, states: np.ndarray | None = Non
 def animate_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.ndarray,
                     obstacles: np.ndarray | None, path: str | os.PathLike, fps: float = 12.5,
                     control_period: float = CONTROL_PERIOD_S, speedup: float = 1.0, title: str = "",
-                    polygons: tuple = (), workspace: np.ndarray | None = None) -> str:
+                    polygons: tuple = (), workspace: np.ndarray | None = None, region: object = None) -> str:
     """An animation of the episode playing at ``speedup`` × real time; returns the path written.
 
     One frame every k = round(speedup / (fps·T)) control steps (T = ``control_period``),
@@ -211,7 +225,8 @@ def animate_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: n
     if frames[-1] != len(states) - 1:
         frames = np.append(frames, len(states) - 1)
     fig, ax = plt.subplots(figsize=(5, 4), dpi=80)
-    _setup_axes(ax, shape, states, np.asarray(goal), obstacles, polygons=polygons, workspace=workspace)
+    _setup_axes(ax, shape, states, np.asarray(goal), obstacles, polygons=polygons, workspace=workspace,
+                region=region)
     ax.set_title(title, fontsize=8)
     patches = [Polygon(np.zeros((3, 2)), closed=True, fc="0.6", ec="k", animated=True) for _ in shape.polygons]
     for p in patches:

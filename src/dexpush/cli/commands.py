@@ -34,7 +34,7 @@ def _episode_files(episode, shape, out: Path, animation: bool, control_period: f
     title = (f"{task} · {rec.shape} · {rec.method} ({rec.params} λ) · {rec.plant} plant · camera: {rec.sensor} · "
              f"seed {rec.seed}\n{'success' if rec.success else 'failure'} in {rec.steps} steps ({rec.time_s:g} s)")
     files = {"trajectory": str(out / "trajectory.png"), "summary": str(out / "summary.json")}
-    regions = {"polygons": episode.polygons, "workspace": episode.workspace}
+    regions = {"polygons": episode.polygons, "workspace": episode.workspace, "region": episode.region}
     fig = plot_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles, title=title,
                        path=files["trajectory"], **regions)
     plt.close(fig)
@@ -57,7 +57,8 @@ def _episode_files(episode, shape, out: Path, animation: bool, control_period: f
 
 
 #: ``dexpush run`` flags that override the config's [run] table (None: not given)
-_RUN_KEYS = ("task", "shape", "goal", "params", "lambda_pred", "method", "seed", "plant", "true_params", "mu",
+_RUN_KEYS = ("task", "shape", "goal", "goal_region", "params", "lambda_pred", "method", "seed", "plant", "true_params",
+             "mu",
              "max_steps")
 
 
@@ -141,6 +142,7 @@ def cmd_robot(args: argparse.Namespace) -> dict:
                          "(docs/robot.md#a-real-franka)")
     shape = load_shape(run.shape)
     task = build_task(run)
+    refuse_region(task, "dexpush robot")
     sensor = build_sensor(config)
     if sensor is None and getattr(args, "camera", None) != "exact":
         sensor = SensorSettings.realistic(seed=0)           # a robot sees through a camera unless told otherwise
@@ -170,6 +172,13 @@ def cmd_robot(args: argparse.Namespace) -> dict:
     return summary
 
 
+def refuse_region(task: object, command: str) -> None:
+    """A one-line ``ValueError`` for a goal region where ``command`` takes goal poses only."""
+    if getattr(task, "region", None) is not None:
+        raise ValueError(f"{command} takes a goal pose; goal regions (docs/goal_regions.md) run in dexpush run and "
+                         "dexpush bench")
+
+
 def cmd_ros(args: argparse.Namespace) -> dict:
     """``dexpush ros``: the ROS 2 node until Ctrl-C (docs/ros.md); the summary holds its last status."""
     from dexpush.cli.config import build_task, check_run_config, lambda_pred, load_shape
@@ -189,6 +198,7 @@ def cmd_ros(args: argparse.Namespace) -> dict:
     run = config.run
     shape = load_shape(run.shape)
     task = build_task(run)
+    refuse_region(task, "dexpush ros")
     node = NodeSettings(world_frame=args.world_frame, twist_frame=args.twist_frame, trigger=args.trigger,
                         stale_s=args.stale, watchdog_s=args.watchdog,
                         smoothing=SmoothingSettings(args.a_limit, args.j_limit) if args.smooth else None,

@@ -5,7 +5,7 @@ documented default when absent. ``dexpush run --print-config`` prints the full e
 file, defaults included, so the easiest start is to save that and edit it::
 
     [run]                       # what to push where (RunSettings)
-    task = "I"                  # I, II, III, IV, C: the start distribution, and goal/obstacles unless given
+    task = "I"                  # I, II, III, IV, V, C: the start distribution, and goal/obstacles unless given
     shape = "examples/shapes/l_block.toml"   # rect, tee, ellipse, or a shape file (Shape.from_file)
     goal = [0.4, 0.2, 0.5]      # x (m), y (m), θ (rad) of the shape's reference point
     obstacles = [[0.2, 0.1, 0.03]]            # discs c_x, c_y, r (m)
@@ -46,6 +46,7 @@ from dexpush.experiments.scenarios import MAX_STEPS, Task, get_task
 from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C
 from dexpush.model.shape import Shape
 from dexpush.perception.markers import read_marker_layout
+from dexpush.problem.goal_region import parse_region
 from dexpush.problem.scene_file import Layout, load_scene
 from dexpush.world.model_plant import ModelPlant
 from dexpush.world.physics_plant import PhysicsPlant, PhysicsSettings
@@ -77,7 +78,7 @@ __all__ = [
 class RunSettings:
     """What to push where, with which method, in which world (the ``[run]`` table)."""
 
-    task: str = "I"                #: I, II, III, IV or C: start distribution, and goal/obstacles unless given
+    task: str = "I"                #: I, II, III, IV, V or C: start distribution, and goal/obstacles unless given
     shape: str = "rect"            #: rect, tee, ellipse, or a TOML shape file
     goal: tuple[float, float, float] | None = None          #: (x, y, θ) in m, m, rad; None: the task's
     obstacles: tuple[tuple[float, float, float], ...] | None = None   #: discs (c_x, c_y, r); None: the task's
@@ -86,6 +87,8 @@ class RunSettings:
     boxes: tuple[tuple[float, ...], ...] | None = None      #: boxes (c_x, c_y, width, height[, yaw rad])
     walls: tuple[tuple[float, ...], ...] | None = None      #: walls (x0, y0, x1, y1, thickness)
     workspace: tuple[float, float, float, float] | None = None   #: a rectangle (x_lo, y_lo, x_hi, y_hi)
+    #: a goal region in place of the goal pose (docs/goal_regions.md), e.g. "overhang:+x,0.06"
+    goal_region: str | None = None
     params: str = "known"          #: known (λ_pred = λ_true) or unknown (λ_pred starts at [15, 0, 0])
     lambda_pred: tuple[float, float, float] | None = None   #: the controller's first λ; overrides ``params``
     method: str = "mppi"           #: mppi, mppi-ukf or gcs
@@ -115,6 +118,10 @@ class RunSettings:
             raise ValueError(f"shape must be one of {', '.join(SHAPES)} or a .toml shape file, got {self.shape!r}")
         if self.goal is not None:
             checked_vector("goal", self.goal, 3)
+        if self.goal_region is not None:
+            parse_region(self.goal_region)
+            if self.goal is not None:
+                raise ValueError("give a goal pose or a goal region, not both")
         for i, ob in enumerate(self.obstacles or ()):
             c = checked_vector(f"obstacle {i}", ob, 3)
             check_positive(f"obstacle {i} radius", c[2], "metres")
@@ -205,7 +212,8 @@ def build_task(run: RunSettings) -> Task:
     (then keyed ``custom``: its records are not the benchmark's)."""
     base = get_task(run.task)
     layout = run.layout()
-    if run.goal is None and layout is None:
+    region = parse_region(run.goal_region) if run.goal_region is not None else getattr(layout, "region", None)
+    if run.goal is None and layout is None and region is None:
         return base
     if base.varies_by_seed:
         raise ValueError(f"task {base.key} draws its own goal and layout per seed: give --goal, --obstacle, "
@@ -213,8 +221,11 @@ def build_task(run: RunSettings) -> Task:
     goal = tuple(float(v) for v in run.goal) if run.goal is not None else base.goal
     if layout is None:
         layout = Layout(base.obstacles, base.polygons, base.workspace)
+    if region is None and run.goal is None:
+        region = base.region
     return dataclasses.replace(base, key="custom", title=f"custom goal (start as task {base.key})", goal=goal,
-                               obstacles=layout.obstacles, polygons=layout.polygons, workspace=layout.workspace)
+                               obstacles=layout.obstacles, polygons=layout.polygons, workspace=layout.workspace,
+                               region=region)
 
 
 def build_plant(config: RunConfig, shape: Shape) -> str | Plant:

@@ -32,6 +32,7 @@ from dexpush.experiments.methods import method_names
 from dexpush.experiments.registry import PARAMS, PLANTS, SHAPES
 from dexpush.experiments.scenarios import MAX_STEPS
 from dexpush.model.cgvmm import MU_C
+from dexpush.problem.goal_region import REGION_SYNTAX
 
 __all__ = ["main"]
 
@@ -86,12 +87,16 @@ def build_parser() -> argparse.ArgumentParser:
     what.add_argument("--print-config", action="store_true",
                       help="print the effective configuration as TOML and exit")
     what.add_argument("--task", default=None,
-                      help="I, II, III, IV or C: start distribution, goal, obstacles (default I)")
+                      help="I, II, III, IV, V or C: start distribution, goal, obstacles (default I)")
     what.add_argument("--shape", default=None, metavar="NAME|FILE.toml",
                       help=f"{', '.join(SHAPES)}, or a shape file (docs/conventions.md#shapes) (default rect)")
     what.add_argument("--goal", type=floats(3, "--goal", angle_last=True), default=None, metavar="X,Y,THETA",
                       help="goal pose of the shape's reference point: x, y in m, θ in rad (or e.g. 30deg) "
                            "(default: the task's)")
+    what.add_argument("--goal-region", default=None, metavar="KIND:ARGS",
+                      help=f"a goal region instead of a pose (docs/goal_regions.md): {REGION_SYNTAX}, e.g. "
+                           "overhang:+x,0.06 (the footprint 6 cm past the workspace's +x edge, its centre of mass on "
+                           "the table)")
     what.add_argument("--obstacle", type=floats(3, "--obstacle"), action="append", default=None,
                       metavar="CX,CY,R", help="a disc obstacle in m; repeat for more (default: the task's)")
     what.add_argument("--obstacle-box", type=floats((4, 5), "--obstacle-box", angle_last=True), action="append",
@@ -195,7 +200,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="the paper's Sec. IV-B table (batched, resumable)")
     bench.add_argument("--tasks", default="I,II,III",
-                       help="comma-separated tasks from I, II, III, IV (confined), C (random clutter) "
+                       help="comma-separated tasks from I, II, III, IV (confined), V (push to the edge), C (random "
+                            "clutter) "
                             "(default I,II,III)")
     bench.add_argument("--shapes", default="rect,tee",
                        help=f"comma-separated shapes from {', '.join(SHAPES)} (default rect,tee)")

@@ -39,6 +39,7 @@ class Method:
       simulator (:func:`dexpush.experiments.simulate.simulate`, the controller being
       :func:`dexpush.control.policy.policy_step`), with the UKF on where ``estimates``;
     * ``obstacles``: it handles obstacles (else the benchmark skips scenarios that have them);
+    * ``regions``: it handles goal regions (:mod:`dexpush.problem.goal_region`);
     * ``cameras``: it works from camera frames (noise, latency, drops), not only exact observations;
     * ``estimates``: it estimates λ online (its records carry the estimate);
     * ``default``: one of the methods ``dexpush bench`` runs when none are named.
@@ -48,6 +49,7 @@ class Method:
     description: ClassVar[str] = ""
     batched: ClassVar[bool] = False
     obstacles: ClassVar[bool] = True
+    regions: ClassVar[bool] = True
     cameras: ClassVar[bool] = True
     estimates: ClassVar[bool] = False
     default: ClassVar[bool] = False
@@ -65,6 +67,8 @@ class Method:
         """Refuse, with a ``ValueError``, a problem or sensing this method does not support."""
         if problem.has_obstacles and not self.obstacles:
             raise ValueError(f"the {self.name} method has no obstacle support; use a problem without obstacles")
+        if problem.region is not None and not self.regions:
+            raise ValueError(f"the {self.name} method plans to a goal pose only; a goal region needs mppi or mppi-ukf")
         self.check_sensing(exact_observations)
 
     def check_sensing(self, exact_observations: bool) -> None:
@@ -112,6 +116,7 @@ class GCS(Method):
     name = "gcs"
     description = "the GCS plan-and-track baseline (no obstacles; needs the drake package)"
     obstacles = False
+    regions = False
     cameras = False
 
     def controller(self, problem: Problem, params: object, seed: int = 0,

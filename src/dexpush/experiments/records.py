@@ -14,7 +14,6 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from dexpush.common.interfaces import CONTROL_PERIOD_S, Sensor
-from dexpush.common.se2 import pose_error
 from dexpush.experiments.methods import Method, get_method
 from dexpush.experiments.simulate import TrialResult
 from dexpush.model.cgvmm import LAMBDA_TRUE, MODE_NAMES, contact_solution
@@ -74,6 +73,9 @@ class EpisodeRecord:
     #: what the camera did, when there was one (:meth:`dexpush.world.sensing.Camera.counts`): frames captured,
     #: dropped, withheld by the perception (by reason, for a rendered camera) and delivered
     frames: dict[str, int] | None = None
+    #: with an overhang goal (:class:`dexpush.problem.goal_region.Overhang`): whether the object's centre of mass
+    #: crossed the table's edge (it fell; the trial failed there); None for other goals
+    dropped: bool | None = None
 
 
 @dataclass
@@ -90,6 +92,8 @@ class Episode:
     obstacles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     polygons: tuple = ()                     #: the problem's convex obstacles (corner arrays)
     workspace: np.ndarray | None = None      #: the workspace's corners, or None
+    #: a goal region's rows (:class:`dexpush.problem.goal_region.RegionRows`), or None for a goal pose
+    region: object = None
 
     def summary(self) -> dict:
         return asdict(self.record)
@@ -134,7 +138,7 @@ def make_episode(problem: Problem, condition: Condition, result: TrialResult, la
     else:
         modes, hits, gaps = np.zeros(0, int), np.zeros(0, bool), None
     in_contact = modes != MODE_NAMES.index("free")
-    pos_err, head_err = pose_error(X[-1, :3], problem.goal)
+    pos_err, head_err = problem.goal_error(X[-1, :3])
     ms = result.step_ms if len(result.step_ms) else np.zeros(1)
     record = EpisodeRecord(
         task=condition.task, shape=condition.shape, params=condition.params, method=condition.method,
@@ -145,10 +149,12 @@ def make_episode(problem: Problem, condition: Condition, result: TrialResult, la
         planning_ms_median=round(float(np.median(ms)), 3), planning_ms_max=round(float(np.max(ms)), 3),
         lanes=int(lanes), plant=plant, sensor=sensor_label(sensor),
         clearance_m=round(float(gaps.min()), 5) if gaps is not None else None,
-        diagnostics=(method or get_method(condition.method)).diagnostics(result), frames=result.frames)
+        diagnostics=(method or get_method(condition.method)).diagnostics(result), frames=result.frames,
+        dropped=bool(np.any(problem.dropped(X))) if problem.region_rows is not None and problem.region_rows.edge
+        else None)
     return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(problem.goal),
                    np.asarray(problem.obstacles).reshape(-1, 3), tuple(np.asarray(p) for p in problem.polygons),
-                   None if problem.workspace is None else np.asarray(problem.workspace))
+                   None if problem.workspace is None else np.asarray(problem.workspace), problem.region_rows)
 
 
 def summarize(trials: list[dict]) -> dict:
@@ -168,6 +174,7 @@ def summarize(trials: list[dict]) -> dict:
     offline, replans, stalls = reported("offline_plan_s"), reported("replans"), reported("stall_resets")
     gaps = np.array([t["clearance_m"] for t in trials if t.get("clearance_m") is not None], float)
     seen = [t["frames"] for t in trials if t.get("frames")]
+    judged = [t["dropped"] for t in trials if t.get("dropped") is not None]
     captured = sum(f.get("captured", 0) for f in seen)
     return {"trials": len(trials), "successes": len(ok),
             "success_rate": round(len(ok) / len(trials), 4) if trials else None,
@@ -182,4 +189,6 @@ def summarize(trials: list[dict]) -> dict:
             # every trial's smallest obstacle clearance: the least of them, and their median (m)
             "clearance_m": [round(float(gaps.min()), 5), round(float(np.median(gaps)), 5)] if len(gaps) else None,
             # of the frames the cameras captured, the share the perception withheld (rendered cameras)
-            "frames_withheld": round(sum(f.get("withheld", 0) for f in seen) / captured, 4) if captured else None}
+            "frames_withheld": round(sum(f.get("withheld", 0) for f in seen) / captured, 4) if captured else None,
+            # with an overhang goal: trials whose object fell off the table's edge
+            "drops": sum(judged) if judged else None}

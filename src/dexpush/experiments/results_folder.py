@@ -196,5 +196,5 @@ def draw_condition(out: Path, name: str, shape: Shape, task: Task, recs: dict[in
         fig = plot_condition(shape, [trajs[s] for s in seeds], [recs[s]["success"] for s in seeds],
                              np.asarray(problem.goal), np.asarray(problem.obstacles).reshape(-1, 3), title=title,
                              path=out / "figures" / f"{name}.png", polygons=problem.polygons,
-                             workspace=problem.workspace)
+                             workspace=problem.workspace, region=problem.region_rows)
     plt.close(fig)

@@ -169,7 +169,8 @@ def run_trial(problem: Problem, starts: Starts, spec: TrialSpec, method: str | M
     if sensor is not None:
         sensor = replace(sensor, seed=sensor.seed * 1_000_003 + spec.seed)
     sensor = world_sensor(plant, sensor, spec.seed)
-    world = make_plant(plant, problem.shape, spec.seed) if isinstance(plant, str) else check_plant(plant)
+    world = (make_plant(plant, problem.shape, spec.seed, problem.table) if isinstance(plant, str)
+             else check_plant(plant))
     controller = method.controller(problem, spec.params, spec.seed, settings)
     pose, pusher = starts(spec.seed)
     return run_loop(world, controller, problem, pose, pusher, sensor=sensor,

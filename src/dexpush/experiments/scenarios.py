@@ -6,6 +6,10 @@
 * Task IV, confined re-arrangement (the paper's Fig. 9): a 0.70 × 0.50 m area walled on every side
   (x ∈ [−0.15, 0.55], y ∈ [−0.25, 0.25], walls 2 cm thick), three discs, the object moved to the far
   side and turned by −90°: goal (0.40, 0, −π/2).
+* Task V, push to the edge (the paper's Sec. IV-D, before the grasp): a 0.75 × 0.70 m table
+  (x ∈ [−0.30, 0.45], y ∈ [−0.35, 0.35]), no obstacles, the goal a region: the footprint overhanging the
+  +x edge by at least 6 cm with its centre of mass still on the table, at any heading
+  (:class:`dexpush.problem.goal_region.Overhang`); the centre of mass past the edge is a drop, a failure.
 * Clutter (``C``): a family, one layout per seed (:class:`ClutterTask`): a 1 × 1 m table (the
   workspace), 3–8 obstacles (discs, boxes, walls), a random start and goal at least 0.35 m apart with
   any heading change, and a free path of at least 3 cm round the footprint from start to goal.
@@ -24,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dexpush.model.shape import Shape
+from dexpush.problem.goal_region import GoalRegion, Overhang
 from dexpush.problem.problem import Problem
 from dexpush.problem.regions import wall
 from dexpush.problem.weights import CostWeights
@@ -49,6 +54,8 @@ class Task:
     pusher_clearance_m: float = 0.05
     polygons: tuple[tuple[tuple[float, float], ...], ...] = ()
     workspace: tuple[float, ...] | None = None
+    #: a goal region (:mod:`dexpush.problem.goal_region`) in place of ``goal``; None: the goal pose
+    region: GoalRegion | None = None
 
     #: whether each seed has its own layout (:class:`ClutterTask`): then :meth:`problem` needs the seed
     varies_by_seed = False
@@ -64,8 +71,8 @@ class Task:
     def problem(self, shape: Shape, weights: CostWeights | None = None, seed: int | None = None) -> Problem:
         """The :class:`dexpush.problem.problem.Problem` of pushing ``shape`` in this scenario (``seed``:
         which layout, for a task that has one per seed)."""
-        return Problem(shape, self.goal, self.obstacles, weights or CostWeights(), polygons=self.polygons,
-                       workspace=self.workspace)
+        return Problem(shape, self.goal if self.region is None else self.region, self.obstacles,
+                       weights or CostWeights(), polygons=self.polygons, workspace=self.workspace)
 
 
 TASKS: dict[str, Task] = {
@@ -73,8 +80,8 @@ TASKS: dict[str, Task] = {
     "II": Task("II", "re-orientation", (0.0, 0.0, float(np.pi / 2))),
     "III": Task("III", "obstacle avoidance", (0.60, 0.0, 0.0), obstacles=((0.30, 0.0, 0.05),)),
 }
-_ALIASES = {"1": "I", "2": "II", "3": "III", "4": "IV", "reposition": "I", "reorient": "II", "obstacle": "III",
-            "confined": "IV", "clutter": "C"}
+_ALIASES = {"1": "I", "2": "II", "3": "III", "4": "IV", "5": "V", "reposition": "I", "reorient": "II",
+            "obstacle": "III", "confined": "IV", "edge": "V", "clutter": "C"}
 
 
 def get_task(name: str | Task) -> Task:
@@ -84,8 +91,8 @@ def get_task(name: str | Task) -> Task:
     key = str(name).strip()
     key = _ALIASES.get(key.lower(), key.upper())
     if key not in TASKS:
-        raise ValueError(f"unknown task {name!r}; choose one of I, II, III, IV, C "
-                         "(or 1, 2, 3, 4, reposition, reorient, obstacle, confined, clutter)")
+        raise ValueError(f"unknown task {name!r}; choose one of I, II, III, IV, V, C "
+                         "(or 1, 2, 3, 4, 5, reposition, reorient, obstacle, confined, edge, clutter)")
     return TASKS[key]
 
 
@@ -240,4 +247,6 @@ def _pusher_start(shape: Shape, pose: np.ndarray, rng: np.random.Generator, clea
 TASKS["IV"] = Task("IV", "confined re-arrangement", (0.38, 0.0, float(-np.pi / 2)),
                    obstacles=((0.16, 0.13, 0.03), (0.22, -0.20, 0.025), (0.42, 0.16, 0.025)),
                    polygons=_walled(-0.20, -0.30, 0.50, 0.20, 0.02))
+TASKS["V"] = Task("V", "push to the edge", (0.0, 0.0, 0.0), workspace=(-0.30, -0.35, 0.45, 0.35),
+                  region=Overhang("+x", 0.06))
 TASKS["C"] = ClutterTask("C", "random clutter", (0.0, 0.0, 0.0))

@@ -41,7 +41,9 @@ def write_tables(out: str | os.PathLike, records: list[dict], meta: dict) -> dic
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary:
         lines.append(f"| {s['task']} | {s['shape']} | {s['params']} | {s['method']} | "
-                     f"{s['successes']}/{s['trials']} ({100 * s['success_rate']:.0f} %) | {fmt(s['object_path_m'])} | "
+                     f"{s['successes']}/{s['trials']} ({100 * s['success_rate']:.0f} %)"
+                     + (f", {s['drops']} dropped" if s.get("drops") is not None else "")
+                     + f" | {fmt(s['object_path_m'])} | "
                      f"{fmt(s['pusher_path_m'])} | {fmt(s['time_to_goal_s'])} | "
                      f"{s['planning_ms_median']:.1f} / {s['planning_ms_max']:.0f} | "
                      + (f"{s['offline_plan_s'][0]:.1f} / {s['offline_plan_s'][1]:.1f} | {s['replans_mean']:.1f} |"

@@ -49,8 +49,15 @@ class PhysicsSettings:
     pressure: str = "uniform"
     pressure_band: float = 0.02       #: width (m) of the ring, radius (m) of each corner patch
     pusher_radius_scale: float = 1.0  #: the world's pusher radius over the shape's (the controller assumes 1)
+    #: the table's top (x_lo, y_lo, x_hi, y_hi) (m), a box with edges the object can overhang and fall from
+    #: (its support spheres past an edge carry nothing); None: a plane without edges
+    table: tuple[float, float, float, float] | None = None
 
     def __post_init__(self) -> None:
+        if self.table is not None:
+            lo_x, lo_y, hi_x, hi_y = checked_vector("table (x_lo, y_lo, x_hi, y_hi)", self.table, 4)
+            if hi_x - lo_x < 1e-3 or hi_y - lo_y < 1e-3:
+                raise ValueError(f"table (x_lo, y_lo, x_hi, y_hi) needs x_hi > x_lo and y_hi > y_lo, got {self.table}")
         for name in ("mass", "height", "table_friction", "pusher_friction", "timestep", "support_spacing",
                      "support_radius", "impratio", "pressure_band", "pusher_radius_scale"):
             check_positive(name, getattr(self, name))
@@ -181,8 +188,7 @@ def scene_xml(shape: Shape, settings: PhysicsSettings, extras: SceneExtras | Non
   {x.visual}
   <asset>{''.join(meshes)}{x.asset}</asset>
   <worldbody>
-    <geom name="table" type="plane" size="2 2 0.1" contype="1" conaffinity="2"
-          friction="{s.table_friction} 0.005 0.0001" rgba="0.9 0.9 0.9 1"/>
+    {_table_geom(s)}
     <body name="slider" pos="0 0 0">
       <freejoint name="slider"/>
       <inertial pos="{com[0]:.6f} {com[1]:.6f} {h / 2 + s.support_radius:.6f}" mass="{s.mass}"
@@ -201,6 +207,16 @@ def scene_xml(shape: Shape, settings: PhysicsSettings, extras: SceneExtras | Non
     {x.world}
   </worldbody>
 </mujoco>"""
+
+
+def _table_geom(s: PhysicsSettings) -> str:
+    """The table: a plane, or a 4 cm thick box whose top is ``s.table`` at z = 0."""
+    look = f'contype="1" conaffinity="2" friction="{s.table_friction} 0.005 0.0001" rgba="0.9 0.9 0.9 1"'
+    if s.table is None:
+        return f'<geom name="table" type="plane" size="2 2 0.1" {look}/>'
+    lo_x, lo_y, hi_x, hi_y = s.table
+    return (f'<geom name="table" type="box" size="{(hi_x - lo_x) / 2:.6f} {(hi_y - lo_y) / 2:.6f} 0.02" '
+            f'pos="{(hi_x + lo_x) / 2:.6f} {(hi_y + lo_y) / 2:.6f} -0.02" {look}/>')
 
 
 def headless_gl() -> None:
@@ -259,6 +275,13 @@ class PhysicsPlant:
         w, x, y, z = q[3:7]
         theta = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
         return np.array([q[0], q[1], theta, *self.data.qpos[self._pq]])
+
+    @property
+    def tilt_deg(self) -> float:
+        """How far (degrees) the object's plane is tilted from the table's: a few hundredths at rest, tens once
+        it falls off an edge."""
+        x, y = self.data.qpos[self._qadr + 4:self._qadr + 6]
+        return float(np.degrees(np.arccos(np.clip(1 - 2 * (x * x + y * y), -1.0, 1.0))))
 
     def observe(self) -> Observation:
         x = self.state
