@@ -161,3 +161,13 @@ def test_task_v_pushes_the_plate_over_the_edge_on_the_physics_plant(tmp_path: Pa
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert code == 0 and summary["success"] and summary["dropped"] is False and summary["collisions"] == 0
     assert summary["final_error_m"] == 0.0 and summary["time_s"] < 20
+
+
+def test_a_physics_config_keeps_the_tasks_table(tmp_path: Path) -> None:
+    from dexpush.cli.config import build_plant, build_task, load_config
+
+    path = tmp_path / "run.toml"
+    path.write_text("[run]\ntask = \"V\"\nshape = \"plate\"\nplant = \"physics\"\n\n[physics]\nmass = 0.3\n")
+    config = load_config(path)
+    plant = build_plant(config, PLATE, build_task(config.run).problem(PLATE).table)
+    assert plant.settings.table == TABLE and plant.settings.mass == 0.3

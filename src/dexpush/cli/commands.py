@@ -111,7 +111,8 @@ def cmd_run(args: argparse.Namespace) -> dict:
     settings = config.controller
     episode = run_episode(task, shape, params=params, method=run.method, seed=run.seed,
                           max_steps=run.max_steps, settings=settings, progress=not args.quiet, lanes=args.lanes,
-                          plant=build_plant(config, shape), sensor=sensor)
+                          plant=build_plant(config, shape, None if task.region is None else task.problem(shape).table),
+                          sensor=sensor)
     out = Path(args.out)
     files = _episode_files(episode, shape, out, animation=not args.no_animation,
                            control_period=settings.mppi.control_period,

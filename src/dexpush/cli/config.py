@@ -228,16 +228,19 @@ def build_task(run: RunSettings) -> Task:
                                region=region)
 
 
-def build_plant(config: RunConfig, shape: Shape) -> str | Plant:
-    """The world of a run: a registry name when the defaults apply, else the plant object. Settings of
-    another plant than the run's are refused, not dropped."""
+def build_plant(config: RunConfig, shape: Shape,
+                table: tuple[float, float, float, float] | None = None) -> str | Plant:
+    """The world of a run: a registry name when the defaults apply, else the plant object (with ``table``, the
+    problem's table top: :attr:`dexpush.problem.problem.Problem.table`). Settings of another plant than the run's
+    are refused, not dropped."""
     run = config.run
     check_run_config(config)
     if run.plant == "model" and (run.true_params is not None or run.mu is not None):
         return ModelPlant(shape, run.true_params if run.true_params is not None else LAMBDA_TRUE,
                           mu=run.mu if run.mu is not None else MU_C)
     if run.plant == "physics" and config.physics != PhysicsSettings():
-        return PhysicsPlant(shape, config.physics)
+        physics = config.physics if table is None else dataclasses.replace(config.physics, table=table)
+        return PhysicsPlant(shape, physics)
     return run.plant
 
 
