@@ -34,7 +34,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive, checked_vector
-from dexpush.common.se2 import wrap_angle
+from dexpush.common.se2 import rotate, wrap_angle
 from dexpush.model.shape import Shape
 from dexpush.problem.regions import halfplane_corners, halfplanes
 
@@ -130,7 +130,7 @@ class Overhang:
         theta = _best_heading(shape, n, rows.point) if self.heading is None else float(self.heading)
         mid = _edge_midpoint(workspace, n)
         v = _rotated(shape, theta)
-        com = _rotate(rows.point, theta)
+        com = rotate(rows.point, theta)
         # the centre of mass between keep_m inside the edge and where the overhang is depth + aim
         far = float(np.max(v @ n) - com @ n) - self.depth_m + rows.reach[0, 3]
         depth = 0.5 * (self.keep_m + far)
@@ -187,7 +187,7 @@ class AtWall:
         n, t = -rows.reach[0, :2], -rows.keep[1, :2]       # the face's outward normal, and along it
         a, b = -rows.keep[1, 2], rows.keep[2, 2]           # the face's ends along t
         theta = 0.0 if self.heading is None else float(self.heading)
-        v, com = _rotated(shape, theta), _rotate(rows.point, theta)
+        v, com = _rotated(shape, theta), rotate(rows.point, theta)
         gap = 0.5 * (self.within_m + margin_m)
         p = n * (-rows.keep[0, 2] + gap + float(np.max(v @ -n))) + t * (0.5 * (a + b) - t @ com)
         return np.array([*p, theta])
@@ -350,28 +350,25 @@ def footprint_centroid(shape: Shape) -> np.ndarray:
     return moment / area
 
 
-def _rotate(v: np.ndarray, theta: float) -> np.ndarray:
-    c, s = np.cos(theta), np.sin(theta)
-    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
-
-
 def _rotated(shape: Shape, theta: float) -> np.ndarray:
-    c, s = np.cos(theta), np.sin(theta)
-    v = np.concatenate(shape.polygons)
-    return v @ np.array([[c, s], [-s, c]])
+    """The footprint's corners (all polygons') turned by θ about the reference point."""
+    return rotate(np.concatenate(shape.polygons), theta)
+
+
+def _reach_past(shape: Shape, n: np.ndarray, com: np.ndarray, angles: object) -> np.ndarray:
+    """How far (m) the footprint reaches past its centre of mass ``com`` along n, at each heading of ``angles``."""
+    return np.array([float(np.max(_rotated(shape, a) @ n) - rotate(com, a) @ n) for a in np.atleast_1d(angles)])
 
 
 def _most_reach(shape: Shape, n: np.ndarray, com: np.ndarray, heading: float | None) -> float:
-    """How far (m) the footprint reaches past its centre of mass along n: at ``heading``, or the most over
-    headings (every 1°)."""
-    angles = [heading] if heading is not None else np.radians(np.arange(360))
-    return max(float(np.max(_rotated(shape, a) @ n) - _rotate(com, a) @ n) for a in angles)
+    """:func:`_reach_past` at ``heading``, or the most over headings (every 1°)."""
+    return float(np.max(_reach_past(shape, n, com, np.radians(np.arange(360)) if heading is None else heading)))
 
 
 def _best_heading(shape: Shape, n: np.ndarray, com: np.ndarray) -> float:
-    angles = np.radians(np.arange(0, 180))
-    reach = [float(np.max(_rotated(shape, a) @ n) - _rotate(com, a) @ n) for a in angles]
-    return float(angles[int(np.argmax(reach))])
+    """The heading (every 1° of a half turn) at which the footprint reaches farthest past ``com`` along n."""
+    angles = np.radians(np.arange(180))
+    return float(angles[int(np.argmax(_reach_past(shape, n, com, angles)))])
 
 
 def _facing_row(rows: np.ndarray, d: np.ndarray, error: str) -> int:

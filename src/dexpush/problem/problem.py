@@ -147,7 +147,7 @@ class Problem:
             goal = region.nominal(self.shape, bounds, polys, self.weights.obstacle_margin_m)
         else:
             goal = checked_vector("goal", self.goal, 3)
-        if bounds is not None and not isinstance(region, Overhang):
+        if bounds is not None and not (goal_rows is not None and goal_rows.edge):    # (an overhang's pose is out)
             self._check_goal_inside(goal, bounds)    # before the guidance, whose grid the goal must lie on
         own = {name: None if getattr(self, name) is None else workspace_halfplanes(getattr(self, name))
                for name in ("object_workspace", "pusher_workspace")}     # the object's and the pusher's own
