@@ -27,7 +27,6 @@ test; inside the aimed region the goal distance is zero and MPPI stops wherever 
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -36,7 +35,7 @@ import numpy as np
 from dexpush.common.checks import check_nonnegative, check_positive, checked_vector
 from dexpush.common.se2 import rotate, wrap_angle
 from dexpush.model.shape import Shape
-from dexpush.problem.regions import halfplane_corners, halfplanes
+from dexpush.problem.regions import footprint_reach, halfplane_corners, halfplanes
 
 __all__ = ["AIM_M", "FIT_WEIGHT", "REGION_SYNTAX", "AtWall", "GoalRegion", "Overhang", "PoseBox", "RegionRows",
            "direction", "dropped", "footprint_centroid", "in_region", "parse_region", "region_distance_sq",
@@ -123,9 +122,10 @@ class Overhang:
         return RegionRows(np.array([[*n, o + self.depth_m, -AIM_M]]), np.array([[*n, o, self.keep_m]]), com,
                           self.heading is not None, edge=True)
 
-    def nominal(self, shape: Shape, workspace: np.ndarray, polygons: tuple = (), margin_m: float = 0.0) -> np.ndarray:
-        """A pose in the region's aimed part (the controller's frame origin and the plots' goal marker)."""
-        rows = self.rows(shape, workspace)
+    def nominal(self, shape: Shape, rows: RegionRows, workspace: np.ndarray | None,
+                margin_m: float = 0.0) -> np.ndarray:
+        """A pose in the region's aimed part (the controller's frame origin and the plots' goal marker), from this
+        region's :meth:`rows`."""
         n = rows.reach[0, :2]
         theta = _best_heading(shape, n, rows.point) if self.heading is None else float(self.heading)
         mid = _edge_midpoint(workspace, n)
@@ -180,10 +180,10 @@ class AtWall:
         keep = np.array([[*-n, -o, 0.0], [*-t, -t @ a, 0.0], [*t, t @ b, 0.0]])
         return RegionRows(reach, keep, com, self.heading is not None)
 
-    def nominal(self, shape: Shape, workspace: np.ndarray | None, polygons: tuple = (),
+    def nominal(self, shape: Shape, rows: RegionRows, workspace: np.ndarray | None,
                 margin_m: float = 0.0) -> np.ndarray:
-        """A pose in the region's aimed part: the centre of mass in front of the face's middle."""
-        rows = self.rows(shape, workspace, polygons, margin_m)
+        """A pose in the region's aimed part (from this region's :meth:`rows`, ``margin_m`` as there): the centre
+        of mass in front of the face's middle."""
         n, t = -rows.reach[0, :2], -rows.keep[1, :2]       # the face's outward normal, and along it
         a, b = -rows.keep[1, 2], rows.keep[2, 2]           # the face's ends along t
         theta = 0.0 if self.heading is None else float(self.heading)
@@ -217,7 +217,7 @@ class PoseBox:
                          [*w, w @ g[:2] + self.y_m, self.y_m / 2], [*-w, -w @ g[:2] + self.y_m, self.y_m / 2]])
         return RegionRows(np.zeros((0, 4)), keep, np.zeros(2), True)
 
-    def nominal(self, shape: Shape, workspace: np.ndarray | None, polygons: tuple = (),
+    def nominal(self, shape: Shape, rows: RegionRows, workspace: np.ndarray | None,
                 margin_m: float = 0.0) -> np.ndarray:
         """The pose itself."""
         return np.asarray(self.goal, np.float64)
@@ -260,15 +260,8 @@ def parse_region(text: str) -> GoalRegion:
 
 # ---------------------------------------------------------------------------- tests and costs (numpy or jnp)
 def _support(xb: Any, yb: Any, s: Any, c: Any, n: Any, corners: Any, xp: Any) -> Any:
-    """max_i n·(p + R v_i) over the corners (C, 2) in {B}, for poses (...,): unrolled for a short outline (the
-    cost's, in every rollout step: elementwise code that fuses), reduced as an array for a long one."""
-    mx, my = c * n[0] + s * n[1], -s * n[0] + c * n[1]                # the direction in {B}
-    if corners.shape[0] > 32:
-        reach = xp.max(mx[..., None] * corners[:, 0] + my[..., None] * corners[:, 1], axis=-1)
-    else:
-        reach = functools.reduce(xp.maximum, [mx * corners[i, 0] + my * corners[i, 1]
-                                              for i in range(corners.shape[0])])
-    return n[0] * xb + n[1] * yb + reach
+    """max_i n·(p + R v_i) over the corners (C, 2) in {B}, for poses (...,)."""
+    return n[0] * xb + n[1] * yb + footprint_reach(s, c, n[0], n[1], corners, xp)
 
 
 def _point(xb: Any, yb: Any, s: Any, c: Any, point: Any) -> tuple[Any, Any]:

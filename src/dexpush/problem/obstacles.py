@@ -27,11 +27,8 @@ import jax.numpy as jnp
 
 from dexpush.common import fastmath
 from dexpush.model.cgvmm import State, components
+from dexpush.problem.regions import UNROLL_CORNERS, footprint_reach
 from dexpush.problem.scene import Scene
-
-#: footprint pieces (and outlines) with at most this many corners have their polygon and workspace gaps
-#: unrolled into elementwise code (the cost's scenes); more (the judge's ellipse) are reduced as arrays
-UNROLL_CORNERS = 32
 
 #: the cost measures the footprint exactly against this many discs nearest each state, and by a lower
 #: bound against any more (:func:`nearest_obstacle_distances`)
@@ -221,12 +218,7 @@ def bound_gaps(x: State, scene: Scene):
     a = scene.edge_a
 
     def footprint_gap(nx: jnp.ndarray, ny: jnp.ndarray, o: jnp.ndarray) -> jnp.ndarray:
-        mx, my = c * nx + s * ny, -s * nx + c * ny                    # the normal in {B}
-        if a.shape[0] > UNROLL_CORNERS:
-            reach = jnp.max(mx[..., None] * a[:, 0] + my[..., None] * a[:, 1], -1)
-        else:
-            reach = functools.reduce(jnp.maximum, [mx * a[e, 0] + my * a[e, 1] for e in range(a.shape[0])])
-        return o - nx * xb - ny * yb - reach
+        return o - nx * xb - ny * yb - footprint_reach(s, c, nx, ny, a, jnp)
 
     for h in range(scene.bounds.shape[0]):
         nx, ny, o = scene.bounds[h, 0], scene.bounds[h, 1], scene.bounds[h, 2]

@@ -144,7 +144,7 @@ class Problem:
         goal_rows = None
         if region is not None:
             goal_rows = region.rows(self.shape, bounds, polys, self.weights.obstacle_margin_m)
-            goal = region.nominal(self.shape, bounds, polys, self.weights.obstacle_margin_m)
+            goal = region.nominal(self.shape, goal_rows, bounds, self.weights.obstacle_margin_m)
         else:
             goal = checked_vector("goal", self.goal, 3)
         if bounds is not None and not (goal_rows is not None and goal_rows.edge):    # (an overhang's pose is out)

@@ -8,19 +8,22 @@
 
 A union of obstacles is simply several of them. Each polygon is also written as half-planes
 n·p ≤ o (outward unit normals n), the form the cost's separating-axis gaps and the workspace
-test use (:mod:`dexpush.problem.obstacles`).
+test use (:mod:`dexpush.problem.obstacles`). :func:`footprint_reach`, how far a turned footprint reaches
+along a direction, serves the workspace gaps and the goal regions (numpy or jnp).
 """
 
 from __future__ import annotations
+
+import functools
+from typing import Any
 
 import numpy as np
 
 from dexpush.common.checks import check_positive, checked_vector
 from dexpush.model.polygons import as_polygon, is_convex
 
-__all__ = ["MAX_POLYGON_CORNERS", "box", "clip_convex", "convex_polygon", "halfplane_corners", "halfplanes",
-           "nearest_on_outline",
-           "point_gap", "wall", "workspace_halfplanes"]
+__all__ = ["MAX_POLYGON_CORNERS", "UNROLL_CORNERS", "box", "clip_convex", "convex_polygon", "footprint_reach",
+           "halfplane_corners", "halfplanes", "nearest_on_outline", "point_gap", "wall", "workspace_halfplanes"]
 
 #: the most corners an obstacle polygon or a workspace may have (each costs every rollout step a few
 #: multiply-adds per footprint corner)
@@ -88,6 +91,22 @@ def workspace_halfplanes(vertices: object) -> np.ndarray:
                              f"got {tuple(float(v) for v in vertices)}")
         vertices = [[lo_x, lo_y], [hi_x, lo_y], [hi_x, hi_y], [lo_x, hi_y]]
     return halfplanes(convex_polygon(vertices, "workspace"))
+
+
+#: footprints with at most this many corners have their reach unrolled into elementwise code (the cost's, in
+#: every rollout step, where XLA fuses it); more (the judge's ellipse) are reduced as arrays
+UNROLL_CORNERS = 32
+
+
+def footprint_reach(s: Any, c: Any, nx: Any, ny: Any, corners: Any, xp: Any = np) -> Any:
+    """max_i m·v_i over the footprint's corners v_i (C, 2) in {B}, m = R(θ)ᵀ n the direction n seen from the
+    body at heading θ (s, c = sin θ, cos θ): how far the footprint reaches along n past its reference point.
+    Unrolled over at most :data:`UNROLL_CORNERS` corners, reduced as an array over more."""
+    mx, my = c * nx + s * ny, -s * nx + c * ny                    # the direction in {B}
+    if corners.shape[0] > UNROLL_CORNERS:
+        return xp.max(mx[..., None] * corners[:, 0] + my[..., None] * corners[:, 1], -1)
+    return functools.reduce(xp.maximum, [mx * corners[e, 0] + my * corners[e, 1]
+                                         for e in range(corners.shape[0])])
 
 
 def halfplane_corners(bounds: np.ndarray) -> np.ndarray:
