@@ -12,7 +12,7 @@ CLUSTER := $(VENV)/.cluster
 # a new user and network namespace with only the loopback up (and multicast on it, for DDS discovery)
 LOOPBACK := unshare -rn sh -c 'ip link set lo up && ip route add 224.0.0.0/4 dev lo && exec "$$@"' sh
 
-.PHONY: demo test test-slow test-franka test-ros test-cluster ros-demo examples lint bench clean
+.PHONY: demo test test-slow test-franka test-franka-slow test-ros test-cluster ros-demo examples lint bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -32,8 +32,13 @@ $(FRANKA): $(STAMP)
 	touch $(FRANKA)
 
 # the simulated Franka (the franka extra), in a network namespace with only the loopback up
+FRANKA_TESTS := tests/test_franka_sim.py tests/test_clearing_sim.py
 test-franka: $(FRANKA)
-	unshare -rn sh -c 'ip link set lo up 2>/dev/null; $(BIN)/python -m pytest -q -m franka tests/test_franka_sim.py'
+	unshare -rn sh -c 'ip link set lo up 2>/dev/null; $(BIN)/python -m pytest -q -m "franka and not slow" $(FRANKA_TESTS)'
+
+# ... and its slow tests (a whole table clearing through dexpush clear, 2-3 min)
+test-franka-slow: $(FRANKA)
+	unshare -rn sh -c 'ip link set lo up 2>/dev/null; $(BIN)/python -m pytest -q -m "franka and slow" $(FRANKA_TESTS)'
 
 $(ROS): $(STAMP)
 	$(BIN)/pip install --quiet -e ".[dev,camera,ros]"

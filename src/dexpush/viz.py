@@ -22,7 +22,7 @@ from dexpush.model.shape import Shape
 
 __all__ = ["animate_episode", "draw_obstacles", "plot_condition", "plot_confusion", "plot_episode", "plot_fit",
            "plot_guidance", "plot_layouts", "plot_mode_decisions", "plot_online_lambda", "plot_params",
-           "plot_shapes", "save_figure_atomic"]
+           "plot_shapes", "save_figure_atomic", "write_video"]
 
 MODE_COLORS = {"stick": "#e6a800", "slide_ccw": "#2ca02c", "slide_cw": "#1f77b4", "free": "#d62728",
                "corner": "#9467bd"}
@@ -253,10 +253,10 @@ def animate_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: n
             ax.draw_artist(artist)
         images.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
     plt.close(fig)
-    return _write_video(images, Path(path), fps)
+    return write_video(images, Path(path), fps)
 
 
-def _write_video(images: list[np.ndarray], path: Path, fps: float) -> str:
+def write_video(images: list[np.ndarray], path: str | os.PathLike, fps: float) -> str:
     """Frames (H, W, 3) uint8 to an MP4 through ffmpeg when ``path`` ends in .mp4 and ffmpeg is
     on the PATH, otherwise to a GIF beside it; atomic either way. Returns the path written."""
     import shutil
@@ -264,6 +264,7 @@ def _write_video(images: list[np.ndarray], path: Path, fps: float) -> str:
 
     from PIL import Image
 
+    path = Path(path)
     ffmpeg = shutil.which("ffmpeg")
     if path.suffix == ".mp4" and ffmpeg:
         h, w = images[0].shape[:2]

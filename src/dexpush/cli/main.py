@@ -8,6 +8,7 @@
     dexpush fit LOG --shape FILE.toml        fit λ (and μ_c) to your own recorded pushes
     dexpush calibrate --board B.toml IMG...  a camera's pose (and intrinsics) from images of a board
     dexpush robot --sim --task I --shape rect  one episode on a simulated Franka FR3 (needs dexpush[franka])
+    dexpush clear [--seed N --out DIR]       clear a table on the simulated FR3: pick, push to the edge, grasp
     dexpush ros --shape tee --scene scene.toml  the ROS 2 node: poses and goals in, twists out (needs dexpush[ros])
 
 Every command writes its files under ``--out`` and prints a one-line JSON summary last.
@@ -24,7 +25,7 @@ import warnings
 from collections.abc import Sequence
 
 from dexpush.cli.arguments import floats, out_folder, positive_float, positive_int, seed, seed_list
-from dexpush.cli.commands import cmd_bench, cmd_calibrate, cmd_fit, cmd_robot, cmd_ros, cmd_run, cmd_validate
+from dexpush.cli.commands import cmd_bench, cmd_calibrate, cmd_clear, cmd_fit, cmd_robot, cmd_ros, cmd_run, cmd_validate
 from dexpush.cli.flags import add_camera_flags, add_planner_flags
 from dexpush.experiments.benchmark import BENCH_LANES
 from dexpush.experiments.cluster import ENGINES
@@ -156,6 +157,17 @@ def build_parser() -> argparse.ArgumentParser:
     add_camera_flags(rob)
     episode_args(rob, "out/robot")
     rob.set_defaults(func=cmd_robot, plant=None, lanes=1, true_params=None, mu=None)
+
+    clear = sub.add_parser("clear", help="clear a table on the simulated FR3 (the paper's Sec. IV-D): pick a cup and a "
+                                         "block, push a plate over the edge with the closed fingers, grasp its rim, "
+                                         "lift it, drop it in a bin; needs pip install 'dexpush[franka]'",
+                           formatter_class=argparse.RawDescriptionHelpFormatter,
+                           epilog="examples:\n  dexpush clear\n  dexpush clear --seed 3 --out out/clear --no-video")
+    clear.add_argument("--seed", type=seed, default=0, help="the plate's start (default 0)")
+    clear.add_argument("--out", type=out_folder, default="out/clear", help="folder for clearing.json and the video")
+    clear.add_argument("--no-video", action="store_true", help="skip the video from the scene's camera")
+    clear.add_argument("--quiet", action="store_true", help="no progress lines")
+    clear.set_defaults(func=cmd_clear)
 
     ros = sub.add_parser("ros", help="the ROS 2 node: object and pusher poses and goals in, twists out (docs/ros.md); "
                                      "needs pip install 'dexpush[ros]' or a sourced ROS 2",

@@ -21,7 +21,7 @@ from dexpush.experiments.runner import run_trial, trial_spec
 from dexpush.experiments.scenarios import MAX_STEPS, Task
 from dexpush.model.shape import Shape
 from dexpush.problem.problem import Problem
-from dexpush.problem.regions import MAX_POLYGON_CORNERS, clip_convex, workspace_halfplanes
+from dexpush.problem.regions import MAX_POLYGON_CORNERS, clip_convex, halfplane_corners, workspace_halfplanes
 from dexpush.robot.driver import DriverSettings, RobotPlant
 from dexpush.robot.guarded import FrameGuard, GuardedController
 from dexpush.robot.safety import SafetySettings
@@ -96,7 +96,8 @@ class Guarded(Method):
 def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unknown", method: str | Method = "mppi-ukf",
                       seed: int = 0, settings: ControllerSettings | None = None, sensor: Any = None,
                       robot: RobotSettings | None = None, address: str | None = None, sim: Any = None,
-                      max_steps: int = MAX_STEPS, progress: bool = False, on_step: Any = None) -> tuple[Episode, dict]:
+                      max_steps: int = MAX_STEPS, progress: bool = False, on_step: Any = None,
+                      world: Any = None, driver: Any = None) -> tuple[Episode, dict]:
     """One episode of ``task`` with ``shape`` on a Franka, and what the robot side saw.
 
     Args:
@@ -111,6 +112,10 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
             ``address``, the pose source.
         on_step: called with ``(period, plant, simulator or None, guarded controller)`` before each
             control period's ``act`` (fault injection).
+        world, driver: a simulated robot already running (a started
+            :class:`dexpush.robot.franka_sim.FrankaSim`) and a driver connected to it, for an episode that is
+            one step of a longer script (docs/goal_regions.md#the-demonstration-on-the-franka): the episode
+            uses them as they are (their frames, the object where it lies) and leaves them running.
 
     Returns:
         the :class:`dexpush.experiments.records.Episode` and a dict of the robot side: the
@@ -124,10 +129,16 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
     method = get_method(method)
     task_problem = task.problem(shape, settings.weights, seed=seed)
     pose, pusher = task.trial_start(shape, seed)
-    if address is not None:           # a real object is where it is: the pusher starts where the task puts it
-        pose, pusher = _start_at(np.asarray(sim.object_pose(), dtype=np.float64), pose, pusher)
+    if address is not None or world is not None:   # a real object is where it is: the pusher starts where the
+        source = sim if world is None else world    # task puts it relative to the object
+        pose, pusher = _start_at(np.asarray(source.object_pose(), dtype=np.float64), pose, pusher)
     goal = np.asarray(task_problem.goal[:2], dtype=np.float64)
-    driver_settings = robot.driver.facing(pose[:2], goal) if robot.place_task and address is None else robot.driver
+    if world is not None:
+        driver_settings = world.settings.driver
+    elif robot.place_task and address is None:
+        driver_settings = robot.driver.facing(pose[:2], goal)
+    else:
+        driver_settings = robot.driver
     area, reach = robot_area(task_problem, robot, driver_settings, pose, pusher)
     problem = robot_problem(task_problem, area, reach)
     pusher = reachable_pusher_start(shape, pose, pusher, reach)
@@ -136,16 +147,22 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
         safety = replace(safety, reach=driver_settings.reach_in_table())
     T = settings.mppi.control_period
     with ExitStack() as stack:
-        if address is None:
+        if world is not None:
+            poses, address, realtime = world, world.address, False
+        elif address is None:
             from dexpush.robot.franka_sim import FrankaSim, SimSettings
+            from dexpush.robot.tabletop import Tabletop
 
             sim_settings = replace(sim or SimSettings(), driver=driver_settings)
+            if problem.table is not None and sim_settings.tabletop is None:     # an overhang's table has edges
+                sim_settings = replace(sim_settings, tabletop=Tabletop(table=problem.table))
             world = stack.enter_context(FrankaSim(shape, problem.obstacles, sim_settings, problem.polygons))
             poses, address, realtime = world, world.address, False
         else:
             world, poses, realtime = None, sim, True
-        driver = FrankyDriver(address, driver_settings, realtime=realtime)
-        stack.callback(driver.close)
+        if driver is None:
+            driver = FrankyDriver(address, driver_settings, realtime=realtime)
+            stack.callback(driver.close)
         plant = stack.enter_context(RobotPlant(driver, poses, deadline_s=robot.deadline_s, watchdog_s=robot.watchdog_s))
         guard = None if robot.guard is None else replace(robot.guard)
 
@@ -181,7 +198,8 @@ def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, p
     pusher's width and ``robot.object_room`` further inside, where the pusher can get round it (an object
     pushed where the pusher cannot follow cannot be pushed back; its outer lines touch the circle, where the
     pusher's are inscribed in theirs), each line eased as far as the start's and the goal's footprints need to
-    lie clear of the cost's margin (``obstacle_margin_m``) by 5 mm.
+    lie clear of the cost's margin (``obstacle_margin_m``) by 5 mm. With an overhang goal the object's area
+    reaches past that edge (its footprint crosses it there; the pusher stays on the table).
     """
     pose = np.asarray(pose, dtype=np.float64)
     goal = np.asarray(problem.goal, dtype=np.float64)
@@ -190,6 +208,12 @@ def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, p
                       else _box_corners(task_workspace(points, robot.workspace_margin)))
     if robot.safety.workspace is not None:
         area = clip_convex(area, robot.safety.workspace_rows)
+    free = area                              # the object's: past an overhang's edge too (the footprint crosses it)
+    goal_rows = problem.region_rows
+    if goal_rows is not None and goal_rows.edge:
+        lines = workspace_halfplanes(area)
+        lines[np.all(np.isclose(lines, goal_rows.keep[:1, :3]), axis=1), 2] += 2 * problem.shape.bounding_radius
+        free = halfplane_corners(lines)
     middle = (pose[:2] + goal[:2]) / 2
     ends = np.concatenate([*problem.shape.footprint_world(pose), *problem.shape.footprint_world(goal)])
     inset = robot.reach_margin + 2 * problem.shape.pusher_radius + robot.object_room
@@ -199,7 +223,7 @@ def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, p
         reach = clip_convex(area, rows)
         held = driver.reach_halfplanes(middle, inset, sides, inscribed=False)
         held[:, 2] = np.maximum(held[:, 2], np.max(ends @ held[:, :2].T, 0) + ease)
-        held = clip_convex(area, held)
+        held = clip_convex(free, held)
         if max(len(reach), len(held)) <= MAX_POLYGON_CORNERS:
             break
     if len(held) < 3 or len(reach) < 3:

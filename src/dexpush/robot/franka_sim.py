@@ -24,16 +24,18 @@ from dexpush.common.checks import check_positive
 from dexpush.common.se2 import wrap_angle
 from dexpush.model.shape import Shape
 from dexpush.robot.driver import DriverSettings
+from dexpush.robot.franky_sim_hooks import FRANKA_LIMITS, Checks, force_grasps, loopback_only, watch_commands
+from dexpush.robot.tabletop import Tabletop, finger_contacts, tabletop_xml
 from dexpush.world.physics_plant import PhysicsSettings, SceneExtras, scene_xml
 
-__all__ = ["FRANKA_LIMITS", "FrankaSim", "SimReport", "SimSettings"]
+__all__ = ["FINGERTIP_M", "FRANKA_LIMITS", "FrankaSim", "SimReport", "SimSettings"]
 
-#: the Franka's Cartesian limits on the commanded tip motion (translation): m/s, m/s², m/s³
-FRANKA_LIMITS = {"velocity": 1.7, "acceleration": 13.0, "jerk": 6500.0}
 
 #: the end-effector frame's offset from the hand along its z axis in franky-sim (the fingertip centre), m
 _EE_FROM_HAND = 0.1034
 _ROD_LENGTH = 0.06
+#: how far the fingertip pads reach beyond the end-effector frame (m): the tool offset of the "fingers" tool
+FINGERTIP_M = 0.0080
 
 # shared-memory layout (float64)
 _TIME, _POSE, _TIP, _ACC, _JERK, _OVER, _JOINTS, _STEPS, _BUSY, _WALL, _MISSED = 0, 1, 4, 7, 8, 9, 10, 11, 12, 13, 14
@@ -46,7 +48,11 @@ class SimSettings:
 
     The object is the physics plant's slider (``physics``; its support grid is coarser than the
     plant's default, 2 cm: the robot's own collisions already fill the 1 ms step); the robot's
-    base is at the origin, the table frame where ``driver.table_origin`` says.
+    base is at the origin, the table frame where ``driver.table_origin`` says. The pusher (``tool``) is a
+    rod on the hand (``"rod"``: ``driver.tool_offset`` beyond the end-effector frame) or the hand's closed
+    fingers (``"fingers"``: the hand is free to grasp; ``driver.tool_offset`` is then the fingertips' reach
+    beyond that frame, :data:`FINGERTIP_M`). ``tabletop``: a table with edges, props, a bin, a camera
+    (:class:`dexpush.robot.tabletop.Tabletop`); None: the floor is the table.
     """
 
     physics: PhysicsSettings = field(default_factory=lambda: PhysicsSettings(support_spacing=0.02))
@@ -54,8 +60,12 @@ class SimSettings:
     realtime: float = 1.0            #: pace the 1 kHz loop by the wall clock (1: real time; 0: as fast as it can)
     hosts: tuple[str, ...] = tuple(f"127.0.0.{i}" for i in range(1, 255))   #: loopback addresses to bind
     start_timeout_s: float = 60.0    #: how long the child may take to come up (s)
+    tool: str = "rod"                #: the pusher: a rod on the hand, or the hand's closed "fingers"
+    tabletop: Tabletop | None = None
 
     def __post_init__(self) -> None:
+        if self.tool not in ("rod", "fingers"):
+            raise ValueError(f"tool is 'rod' or 'fingers', got {self.tool!r}")
         if not (np.isfinite(self.realtime) and self.realtime >= 0):
             raise ValueError(f"realtime is a pacing factor >= 0, got {self.realtime!r}")
         bad = [h for h in self.hosts if not h.startswith("127.")]
@@ -130,7 +140,7 @@ class FrankaSim:
         rho = float(shape.pusher_radius * self.settings.physics.pusher_radius_scale)
         self._proc = ctx.Process(target=_serve, name="franky-sim", daemon=True,
                                  args=(self._xml, rho, d, self.settings.hosts, float(self.settings.realtime),
-                                       self._shared, child))
+                                       self._shared, child, self.settings.tool, self.settings.tabletop))
         self.address: str | None = None
 
     def start(self) -> FrankaSim:
@@ -154,11 +164,11 @@ class FrankaSim:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def _ask(self, *message: object) -> object:
+    def _ask(self, *message: object, timeout_s: float = 10.0) -> object:
         if not self._proc.is_alive():
             raise RuntimeError("the simulated Franka has stopped")
         self._conn.send(message)
-        if not self._conn.poll(10.0):
+        if not self._conn.poll(timeout_s):
             raise RuntimeError(f"the simulated Franka did not answer {message[0]!r}")
         kind, value = self._conn.recv()
         if kind == "error":
@@ -176,6 +186,19 @@ class FrankaSim:
     def knock(self, dxy: object) -> None:
         """Move the object by ``dxy`` (m, table frame) at once, as a hand knocking it would."""
         self._ask("knock", tuple(float(v) for v in np.asarray(dxy, dtype=np.float64).reshape(2)))
+
+    def bodies(self) -> dict[str, np.ndarray]:
+        """The true positions of the object (``"object"``) and the props (by name): (x, y) in the table frame,
+        the height of the body's origin above the table top and its tilt from upright (degrees)."""
+        return {k: np.asarray(v) for k, v in self._ask("bodies").items()}
+
+    def record(self, fps: float = 10.0, size: tuple[int, int] = (320, 240)) -> None:
+        """Start filming the tabletop's camera at ``fps`` (simulated time), ``size`` (width, height) pixels."""
+        self._ask("record", float(fps), (int(size[0]), int(size[1])))
+
+    def save_frames(self, path: str) -> int:
+        """Stop filming and write the frames to ``path`` (``.npy``, (N, H, W, 3) uint8); returns N."""
+        return int(self._ask("save_frames", str(path), timeout_s=3600.0))
 
     @property
     def time(self) -> float:
@@ -206,9 +229,12 @@ class FrankaSim:
 
 
 # ---------------------------------------------------------------------------- the child process
-def _graft(sim: object, xml: str, rho: float, tool_offset: float) -> None:
-    """Move our scene's slider, meshes and drawn obstacles into franky-sim's scene and put the pusher
-    rod on the hand (its bottom ``tool_offset`` beyond the end-effector frame)."""
+def _graft(sim: object, xml: str, rho: float, frames: DriverSettings, tool: str = "rod",
+           tabletop: Tabletop | None = None) -> None:
+    """Move our scene's slider, meshes and drawn obstacles into franky-sim's scene and put the pusher on the
+    hand: a rod (its bottom ``frames.tool_offset`` beyond the end-effector frame) or the fingers; add the
+    tabletop's table (the floor then drops below it), props, bin and camera."""
+    tool_offset = frames.tool_offset
     ours = ET.fromstring(xml)
     solref = ours.find("default/geom").get("solref")
     solimp = ours.find("default/geom").get("solimp")
@@ -221,6 +247,10 @@ def _graft(sim: object, xml: str, rho: float, tool_offset: float) -> None:
             for key in ("conaffinity", "friction"):
                 geom.set(key, table.get(key))
             geom.set("contype", "0")         # not the arm (its base rests on it): a low tip is checked instead
+            if tabletop is not None and tabletop.table is not None:     # the floor, below the table's edges
+                geom.set("pos", f"0 0 {frames.table_z + tabletop.floor_z:.6f}")
+                geom.set("contype", "1")
+                geom.set("conaffinity", "3")
     asset = sim.scene.find("asset")
     for mesh in ours.find("asset"):
         asset.append(mesh)
@@ -234,100 +264,30 @@ def _graft(sim: object, xml: str, rho: float, tool_offset: float) -> None:
             g.set("solref", g.get("solref", solref))
             g.set("solimp", g.get("solimp", solimp))
         sim.worldbody.append(child)
+    if tabletop is not None:
+        tabletop_xml(tabletop, frames, float(pusher.get("friction").split()[0]), sim.worldbody)
     hand = next(b for b in sim.worldbody.iter("body") if b.get("name", "").endswith("hand"))
     bottom = _EE_FROM_HAND + tool_offset
+    ET.SubElement(hand, "site", name="pusher_tip", pos=f"0 0 {bottom:.6f}", size="0.002")
+    if tool == "fingers":
+        finger_contacts(sim.worldbody, 1.0)
+        # flat pads on a flat plate: several contact points (one, by default, lets a pinched plate pivot)
+        flag = opt.find("flag") if opt.find("flag") is not None else ET.SubElement(opt, "flag")
+        flag.set("multiccd", "enable")
+        return
     ET.SubElement(hand, "geom", name="pusher_rod", type="cylinder", size=f"{rho:.6f} {_ROD_LENGTH / 2}",
                   pos=f"0 0 {bottom - _ROD_LENGTH / 2:.6f}", contype=pusher.get("contype"),
                   conaffinity=pusher.get("conaffinity"), friction=pusher.get("friction"), mass="0.05",
                   rgba="0.1 0.7 0.8 1", solref=solref, solimp=solimp)
-    ET.SubElement(hand, "site", name="pusher_tip", pos=f"0 0 {bottom:.6f}", size="0.002")
-
-
-#: a gap in the command stream longer than this (s) starts a new motion: no derivative spans it
-_GAP_S = 0.005
-
-
-class _Checks:
-    """The commanded tip motion against :data:`FRANKA_LIMITS`, from each command of the client's 1 kHz
-    stream (a millisecond without one is counted in ``missed``; the next difference spans the gap)."""
-
-    def __init__(self) -> None:
-        self.v = self.a = self.mode = None
-        self.t = 0.0
-        self.max_a = self.max_j = 0.0
-        self.over = self.missed = 0
-
-    def command(self, mode: str, v: np.ndarray, t: float) -> None:
-        if mode != self.mode or not (0 < t - self.t <= _GAP_S):   # a new motion (or a new connection)
-            self.mode, self.v, self.a = mode, None, None
-        if self.v is not None:
-            dt = t - self.t
-            self.missed += round(dt / 1e-3) - 1
-            a = (v - self.v) / dt
-            if self.a is not None:
-                j = float(np.linalg.norm(a - self.a)) / dt
-                self.max_j = max(self.max_j, j)
-                self.over += j > FRANKA_LIMITS["jerk"]
-            na = float(np.linalg.norm(a))
-            self.max_a = max(self.max_a, na)
-            self.over += na > FRANKA_LIMITS["acceleration"]
-            self.a = a
-        self.v, self.t = v, t
-
-
-def watch_commands(robot_server: object, checks: _Checks) -> None:
-    """Feed ``checks`` the commanded tip velocity of every Cartesian velocity command the client sends
-    (the pushing stream), on the command's own clock: its message id counts the robot's 1 ms states.
-
-    Pose motions (the moves to the start) are not checked: in the simulator the client's pose
-    commands carry its scheduling jitter (a late millisecond shows as a velocity spike of the
-    commanded pose), which a real robot's hard 1 kHz cycle does not have; franky's Ruckig shapes them."""
-    from franky_sim.franka_robot_protocol import UDPCommand
-
-    handle = robot_server._handle_udp_command
-
-    def handle_and_check(command_data: bytes) -> None:
-        handle(command_data)
-        cmd = UDPCommand.from_bytes(command_data)
-        mode = getattr(getattr(robot_server, "_FrankaRobotServer__control_mode", None), "value", "")
-        if cmd.message_id > 0 and not cmd.motion_generation_finished and mode == "cartesian_velocity":
-            checks.command(mode, np.asarray(cmd.O_dP_EE_c[:3], dtype=np.float64), cmd.message_id * 1e-3)
-
-    robot_server._handle_udp_command = handle_and_check
-
-
-def loopback_only() -> None:
-    """Make franky-sim's servers bind loopback addresses only: it binds its UDP state socket to every
-    interface (0.0.0.0); here such a bind takes the loopback address its TCP server bound, and a bind to
-    any address outside 127.x raises."""
-    import socket
-    import types
-
-    import franky_sim.franka_server as franka_server
-
-    bound = ["127.0.0.1"]
-
-    class LoopbackSocket(socket.socket):
-        def bind(self, address: object) -> None:
-            if isinstance(address, tuple):
-                host = str(address[0])
-                if host in ("", "0.0.0.0"):
-                    address = (bound[0], *address[1:])
-                elif not host.startswith("127."):
-                    raise OSError(f"dexpush binds the simulated robot to loopback addresses only, not {host}")
-                else:
-                    bound[0] = host
-            super().bind(address)
-
-    shim = types.SimpleNamespace(**{k: getattr(socket, k) for k in dir(socket) if not k.startswith("__")})
-    shim.socket = LoopbackSocket
-    franka_server.socket = shim
 
 
 def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...], realtime: float, shared: object,
-           conn: object) -> None:
+           conn: object, tool: str = "rod", tabletop: Tabletop | None = None) -> None:
     """The child: build the scene, serve the robot, step at 1 kHz, answer the parent."""
     try:
+        from dexpush.world.physics_plant import headless_gl
+
+        headless_gl()
         import mujoco
         from franky_sim import SimulationServer
         from franky_sim.mujoco_simulator import MujocoSimulator
@@ -337,10 +297,11 @@ def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...],
     yaw = frames.table_yaw
     try:
         loopback_only()
+        force_grasps()
         sim = MujocoSimulator()
         sim.init()
         robot = sim.add_robot()
-        _graft(sim, xml, rho, frames.tool_offset)
+        _graft(sim, xml, rho, frames, tool, tabletop)
         server = SimulationServer(sim, hostname_candidates=iter(hosts))
         server.init()
     except Exception as exc:
@@ -353,7 +314,7 @@ def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...],
     joints = [model.joint(f"robot0_fr3_joint{i}").id for i in range(1, 8)]
     jq = model.jnt_qposadr[joints]
     lo, hi = model.jnt_range[joints, 0], model.jnt_range[joints, 1]
-    checks = _Checks()
+    checks = Checks()
     watch_commands(server.robot_servers[0], checks)
 
     def publish() -> None:
@@ -376,6 +337,42 @@ def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...],
         mujoco.mj_forward(model, data)
         publish()
 
+    free = {"object": model.body("slider").id} | {
+        model.body(b).name.removeprefix("prop_"): model.body(b).id
+        for b in range(model.nbody) if model.body(b).name.startswith("prop_")}
+
+    def bodies() -> dict[str, tuple[float, float, float, float]]:
+        out = {}
+        for name, b in free.items():
+            p, (_, x, y, _) = data.xpos[b], data.xquat[b]
+            xy = frames.to_table(p[:2])
+            tilt = np.degrees(np.arccos(np.clip(1 - 2 * (x * x + y * y), -1.0, 1.0)))
+            out[name] = (float(xy[0]), float(xy[1]), float(p[2] - frames.table_z), float(tilt))
+        return out
+
+    film: dict = {"states": [], "next": 0.0, "period": 0.0, "size": (320, 240)}
+
+    def record(fps: float, size: tuple[int, int]) -> None:
+        film.update(states=[], next=data.time, period=1.0 / fps, size=size)
+
+    def save_frames(path: str) -> int:
+        """Render the recorded states (after the fact: rendering in the 1 kHz loop would slow it)."""
+        states, film["states"], film["period"] = film["states"], [], 0.0
+        if not states:
+            np.save(path, np.zeros((0, 1, 1, 3), np.uint8))
+            return 0
+        view = mujoco.MjData(model)
+        w, h = film["size"]
+        with mujoco.Renderer(model, h, w) as renderer:
+            images = []
+            for q in states:
+                view.qpos[:] = q
+                mujoco.mj_forward(model, view)
+                renderer.update_scene(view, camera="scene_camera")
+                images.append(renderer.render().copy())
+        np.save(path, np.stack(images))
+        return len(images)
+
     publish()
     conn.send(("ready", robot.hostname))
     steps, busy = 0, 0.0
@@ -387,12 +384,19 @@ def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...],
                 if message[0] == "close":
                     break
                 try:
+                    answer = None
                     if message[0] == "place":
                         place(message[1])
                     elif message[0] == "knock":
                         pose = np.array(shared[_POSE:_POSE + 3])
                         place((pose[0] + message[1][0], pose[1] + message[1][1], pose[2]))
-                    conn.send(("ok", None))
+                    elif message[0] == "bodies":
+                        answer = bodies()
+                    elif message[0] == "record":
+                        record(*message[1:])
+                    elif message[0] == "save_frames":
+                        answer = save_frames(message[1])
+                    conn.send(("ok", answer))
                 except Exception as exc:
                     conn.send(("error", f"{type(exc).__name__}: {exc}"))
             t0 = time.perf_counter()
@@ -402,6 +406,9 @@ def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...],
             q = data.qpos[jq]
             shared[_JOINTS] += bool(np.any(q < lo) or np.any(q > hi))
             publish()
+            if film["period"] > 0 and data.time >= film["next"]:
+                film["states"].append(data.qpos.copy())
+                film["next"] += film["period"]
             now = time.perf_counter()
             shared[_STEPS], shared[_BUSY], shared[_WALL] = steps, busy, now - start
             if realtime > 0:              # paced: never ahead of the wall clock (scaled); behind, it runs flat out
