@@ -92,13 +92,13 @@ def test_a_plate_over_the_edge_is_grasped_by_its_rim_lifted_level_and_dropped_in
 
 
 def test_a_bad_seed_is_one_line() -> None:
-    r = subprocess.run([sys.executable, "-m", "dexpush", "clear", "--seed", "-1"], capture_output=True, text=True)
+    r = subprocess.run([sys.executable, "-m", "dexpush.cli", "clear", "--seed", "-1"], capture_output=True, text=True)
     assert r.returncode == 2 and "seed" in r.stderr and "Traceback" not in r.stderr
 
 
 @pytest.mark.slow
 def test_dexpush_clear_clears_the_table_and_films_it(tmp_path: Path) -> None:
-    r = subprocess.run([sys.executable, "-m", "dexpush", "clear", "--seed", "1000", "--out", str(tmp_path)],
+    r = subprocess.run([sys.executable, "-m", "dexpush.cli", "clear", "--seed", "1000", "--out", str(tmp_path)],
                        capture_output=True, text=True, timeout=900)
     summary = json.loads(r.stdout.strip().splitlines()[-1])
     record = json.loads((tmp_path / "clearing.json").read_text())
