@@ -265,7 +265,8 @@ def _graft(sim: object, xml: str, rho: float, frames: DriverSettings, tool: str 
             g.set("solimp", g.get("solimp", solimp))
         sim.worldbody.append(child)
     if tabletop is not None:
-        tabletop_xml(tabletop, frames, float(pusher.get("friction").split()[0]), sim.worldbody)
+        table_friction = float(ours.find("worldbody/geom").get("friction").split()[0])   # the scene's table's
+        tabletop_xml(tabletop, frames, table_friction, sim.worldbody)
     hand = next(b for b in sim.worldbody.iter("body") if b.get("name", "").endswith("hand"))
     bottom = _EE_FROM_HAND + tool_offset
     ET.SubElement(hand, "site", name="pusher_tip", pos=f"0 0 {bottom:.6f}", size="0.002")

@@ -115,7 +115,8 @@ def _box(parent: ET.Element, frames: DriverSettings, centre: np.ndarray, half: t
 
 
 def tabletop_xml(top: Tabletop, frames: DriverSettings, friction: float, worldbody: ET.Element) -> None:
-    """Add ``top``'s table, props, bin and camera to ``worldbody`` (franky-sim's scene, base frame)."""
+    """Add ``top``'s table (its top's Coulomb ``friction``), props, bin and camera to ``worldbody`` (franky-sim's
+    scene, base frame)."""
     grip = {"friction": f"{friction} 0.005 0.0001"}
     if top.table is not None:
         lo_x, lo_y, hi_x, hi_y = top.table
