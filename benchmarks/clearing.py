@@ -20,16 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
+from dexpush.cli.arguments import seed_list
 from dexpush.common.files import atomic_path
 from dexpush.experiments.clearing import run_clearing
 from dexpush.world.sensing import SensorSettings
-
-
-def seeds(text: str) -> list[int]:
-    if "-" in text:
-        a, b = text.split("-")
-        return list(range(int(a), int(b) + 1))
-    return [int(s) for s in text.split(",")]
 
 
 def table(records: list[dict]) -> str:
@@ -65,14 +59,14 @@ def table(records: list[dict]) -> str:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", required=True, type=Path)
-    p.add_argument("--seeds", default="0-29")
+    p.add_argument("--seeds", type=seed_list, default=seed_list("0-29"), help="e.g. 0-29 or 0,3,7 (default 0-29)")
     p.add_argument("--video-seed", type=int, default=None, help="film this seed (video.gif or .mp4 in --out)")
     args = p.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "records.jsonl"
     done = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
     have = {r["seed"] for r in done}
-    for seed in seeds(args.seeds):
+    for seed in args.seeds:
         if seed in have:
             continue
         t = time.time()
