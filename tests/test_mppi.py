@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from dexpush import Shape
 from dexpush.control.controller import ControllerSettings, PushingController
-from dexpush.control.mppi import MPPISettings, mppi_iteration, shift_in_time
+from dexpush.control.mppi import MPPISettings, _spread, mppi_iteration, shift_in_time
 
 
 @functools.cache
@@ -94,7 +94,8 @@ def test_step_durations_follow_the_paper() -> None:
 
 
 @pytest.mark.parametrize("bad", [dict(num_samples=0), dict(temperature=0.0), dict(noise_sigma=-1.0),
-                                 dict(refine_fraction=1.5), dict(control_cost=-1.0), dict(update="mean")])
+                                 dict(refine_fraction=1.5), dict(control_cost=-1.0), dict(update="mean"),
+                                 dict(spread_cap=0.0)])
 def test_bad_settings(bad: dict) -> None:
     with pytest.raises(ValueError, match=next(iter(bad))):
         MPPISettings(**bad)
@@ -147,3 +148,66 @@ def test_a_colder_temperature_weights_fewer_samples() -> None:
     np.testing.assert_array_equal(default.sequence, same.sequence)
     ess = [float(planner(*args, temperature=t).ess) for t in (0.5, 0.1, 0.02, 1e-7)]
     assert ess[0] > ess[1] > ess[2] > ess[3] and ess[3] == pytest.approx(1.0, abs=1e-3)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10**6), n=st.integers(1, 200), penalized=st.integers(0, 300))
+def test_the_temperature_spread_is_the_median_of_the_samples_that_paid_no_penalty(seed: int, n: int,
+                                                                                   penalized: int) -> None:
+    """λ's spread is median − min over the costs within ``spread_cap`` of the best: the plain median, bit for
+    bit, where none is beyond it; the median of the others, however many paid a penalty."""
+    rng = np.random.default_rng(seed)
+    fair = rng.exponential(1.0, n).astype(np.float32)
+    S = jnp.asarray(np.concatenate([fair, 1e9 * (1 + rng.random(penalized))]).astype(np.float32))
+    S_min = jnp.min(S)
+    got = float(_spread(S, S_min, 1e6))
+    assert got == pytest.approx(float(np.median(fair) - fair.min()), rel=1e-6, abs=1e-7)
+    if penalized == 0:
+        assert got == float(_spread(S, S_min, None))
+
+
+def test_beside_a_wall_the_update_stays_selective_when_most_samples_pay_its_penalty() -> None:
+    """A point in a corridor 2 cm wide, its target 0.3 m along it: most samples cross a wall (1e9 per slot
+    beyond it). Their median sets λ so high that the samples inside weigh alike (a wide, averaged update);
+    measured over the samples inside, the update follows the best up the corridor, to a lower cost."""
+    def plan(cap):
+        def dynamics(x, u, dt, params):
+            return x + dt * u
+
+        def cost(x, target):
+            return jnp.sum((x - target) ** 2, -1) + 1e9 * (jnp.abs(x[..., 0]) > 0.01)
+
+        return jax.jit(functools.partial(mppi_iteration, dynamics=dynamics, running_cost=cost,
+                                         terminal_cost=lambda x, t: 10 * cost(x, t),
+                                         settings=MPPISettings(num_samples=512, spread_cap=cap)))
+
+    runs = {}
+    for cap in (1e6, None):
+        planner, U, key, ess = plan(cap), jnp.zeros((25, 2)), jax.random.PRNGKey(3), []
+        for _ in range(10):
+            key, sub = jax.random.split(key)
+            res = planner(sub, U, jnp.zeros(2), None, jnp.array([0.0, 0.3]))
+            U = res.sequence
+            ess.append(float(res.ess))
+        runs[cap] = float(res.cost_nominal), float(np.median(ess))
+    (capped, capped_ess), (plain, plain_ess) = runs[1e6], runs[None]
+    assert plain_ess > 5 * capped_ess
+    assert capped < 0.8 * plain
+
+
+def test_without_obstacles_the_spread_cap_changes_no_command() -> None:
+    """No obstacle, no workspace: no sample pays a penalty, so the capped spread is the plain median and the
+    controller's commands are the same, bit for bit."""
+    runs = []
+    for cap in (1e6, None):
+        ctrl = PushingController(Shape.rectangle(), goal=(0.3, 0.0, 0.5), params=(25.0, -0.01, 0.02),
+                                 settings=ControllerSettings(mppi=MPPISettings(num_samples=256, spread_cap=cap)))
+        ctrl.reset(seed=2)
+        pose, pusher, commands = np.zeros(3), np.array([-0.15, 0.0]), []
+        for _ in range(8):
+            u = ctrl.command(pose, pusher)
+            pusher = pusher + 0.04 * u
+            commands.append(u)
+        runs.append(np.array(commands))
+    np.testing.assert_array_equal(runs[0], runs[1])
+    assert np.abs(runs[0]).max() > 0.01

@@ -32,6 +32,7 @@ _PLANNER = {
     "--guidance": ("guidance", ("weights", "guidance")),
     "--stall-after": ("stall_after", ("stall", "after_s")),
     "--temperature": ("temperature", ("mppi", "temperature")),
+    "--spread-cap": ("spread_cap", ("mppi", "spread_cap")),
     "--endgame-temperature": ("endgame_temperature", ("endgame", "temperature")),
     "--margin-cost": ("margin_cost", ("weights", "C_margin")),
     "--obstacle-margin": ("obstacle_margin", ("weights", "obstacle_margin_m")),
@@ -63,6 +64,10 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--temperature", type=positive_float, default=None, metavar="TAU",
                    help="MPPI's relative temperature τ: λ = τ·(median − min of the sampled costs) "
                         "(mppi.temperature; docs/controller.md; default: 0.02)")
+    g.add_argument("--spread-cap", type=positive_or_off("a cost"), default=None, metavar="C|off",
+                   help="the median of λ is taken over the samples within C of the best (those that paid no "
+                        "obstacle penalty), or over all of them (off) (mppi.spread_cap; "
+                        "docs/controller.md#the-temperature-beside-obstacles; default: 1e6)")
     g.add_argument("--endgame-temperature", type=positive_or_off("a temperature"), default=None,
                    metavar="TAU|off", help="τ within 4 cm of the goal, or the same τ everywhere (off) "
                    "(endgame.temperature; docs/controller.md#the-endgame-temperature; default: 0.005)")

@@ -29,8 +29,11 @@ Choices the paper leaves to its reference [8] (measured in ``docs/controller.md`
 * the temperature is *relative*: λ = τ·(median − min of the sampled costs), τ = 0.02.
   The costs of eq. (9) span eight orders of magnitude between "0.6 m away" and "2 mm
   away", and C_pen = 1e13 makes the mean useless; the median-to-best spread keeps the
-  weighting equally selective everywhere. A caller may pass another τ per iteration
-  (the controller does near the goal: ``ControllerSettings.endgame.temperature``).
+  weighting equally selective everywhere. The median is that of the samples that paid no
+  obstacle penalty (``spread_cap``): beside an obstacle or a table edge more than half of
+  them can pay one, and their median would make λ so large that every sample that paid none
+  weighed the same. A caller may pass another τ per iteration (the controller does near the
+  goal: ``ControllerSettings.endgame.temperature``).
 * control cost q_u·Σ Δt_k‖v_k‖² with q_u = 1: an effort tie-breaker worth ~0.03 cost
   units for a full-speed 3-s horizon, small against millimetre goal errors.
 * warm start: the nominal sequence is a piecewise-constant function of time on the
@@ -93,6 +96,9 @@ class MPPISettings:
                                   #: interpolated over the slots (0: independent per slot)
     v_max: float = 0.1            #: pusher speed limit (m/s); clipped per axis to ±v_max/√2 (10)
     temperature: float = 0.02     #: τ, relative temperature λ = τ·(median S − min S)
+    #: the median of λ is taken over the samples that cost at most min S + this: a sample past it paid an
+    #: obstacle's penalty (C_margin = 1e9 per margin depth, C_pen = 1e13 per touch); None: over all of them
+    spread_cap: float | None = 1e6
     control_cost: float = 1.0     #: q_u of the effort term q_u·Σ Δt_k‖v_k‖²
     control_period: float = CONTROL_PERIOD_S  #: T (s), time between iterations; the warm-start shift
     #: the update: "sampled" averages the sampled inputs U + ε and clips the average, the input bound (10)
@@ -112,6 +118,8 @@ class MPPISettings:
         for name in ("dt0", "noise_sigma", "refine_sigma", "v_max", "temperature", "control_period"):
             check_positive(name, getattr(self, name))
         check_nonnegative("control_cost", self.control_cost)
+        if self.spread_cap is not None:
+            check_positive("spread_cap", self.spread_cap, "or None")
         if self.update not in ("sampled", "clipped"):
             raise ValueError(f"update must be 'sampled' or 'clipped', got {self.update!r}")
         span = float(np.sum(self.step_durations()))
@@ -151,6 +159,18 @@ def _median(S: jnp.ndarray) -> jnp.ndarray:
     m = n // 2
     part = jnp.partition(S, m)
     return part[m] if n % 2 else 0.5 * (jnp.max(part[:m]) + part[m])
+
+
+def _spread(S: jnp.ndarray, S_min: jnp.ndarray, cap: float | None) -> jnp.ndarray:
+    """median − min of the costs S (K,) at most ``S_min + cap`` (all of them with ``cap`` None; the plain
+    :func:`_median`, bit for bit, where none is above it)."""
+    if cap is None:
+        return _median(S) - S_min
+    below = S <= S_min + cap
+    n = jnp.sum(below)
+    ordered = jnp.sort(jnp.where(below, S, jnp.inf))
+    lo, hi = ordered[(n - 1) // 2], ordered[n // 2]
+    return jnp.where(n == S.shape[0], _median(S), 0.5 * (lo + hi)) - S_min
 
 
 def slot_durations(settings: MPPISettings, horizon_scale: jnp.ndarray | float = 1.0,
@@ -246,7 +266,7 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
     S = total + terminal_cost(xN, context)
     S_min = jnp.min(S)
     tau = settings.temperature if temperature is None else temperature
-    lam = tau * (_median(S) - S_min) + 1e-12
+    lam = tau * _spread(S, S_min, settings.spread_cap) + 1e-12
     w = jax.nn.softmax(-(S - S_min) / lam)
     if settings.update == "sampled":
         U_new = jnp.clip(jnp.einsum("k,knd->nd", w, raw), -settings.v_clip, settings.v_clip)
