@@ -3,9 +3,9 @@ no obstacle penalty (``MPPISettings.spread_cap``, docs/controller.md#the-tempera
 
     python benchmarks/temperature_spread.py [--runs 10] [--steps 400]
 
-The state is where the clearing demonstration's push of seed 12 stalled on the simulated Franka (stop 54's
-table, docs/goal_regions.md#the-demonstration-on-the-franka): the plate 1 mm short of its overhang, near the
-table's corner, the pusher behind it; the problem is that push's on the arm (the object and pusher areas of
+The state is where the clearing demonstration's push of seed 12 stalled on the simulated Franka with stop 54's
+code (docs/goal_regions.md#the-demonstration-on-the-franka; a rerun of that push, which stalled again): the
+plate 4 mm short of its overhang, 17 mm from the table's side, the pusher behind it; the problem is that push's on the arm (the object and pusher areas of
 :func:`dexpush.experiments.robot_trial.robot_area`). For each setting it prints one iteration from a zero warm
 start: the cost of sample 0 (standing still), the best sample's and the effective sample size; then
 ``--runs`` closed loops on the model plant (exact observations, λ_pred = the UKF's estimate then,
