@@ -5,9 +5,10 @@ no obstacle penalty (``MPPISettings.spread_cap``, docs/controller.md#the-tempera
 
 The state is where the clearing demonstration's push of seed 12 stalled on the simulated Franka with stop 54's
 code (docs/goal_regions.md#the-demonstration-on-the-franka; a rerun of that push, which stalled again): the
-plate 4 mm short of its overhang, 17 mm from the table's side, the pusher behind it; the problem is that push's on the arm (the object and pusher areas of
-:func:`dexpush.experiments.robot_trial.robot_area`). For each setting it prints one iteration from a zero warm
-start: the cost of sample 0 (standing still), the best sample's and the effective sample size; then
+plate 4 mm short of its overhang, 17 mm from the table's side, the pusher behind it; the problem is that push's
+on the arm (the object and pusher areas of :func:`dexpush.experiments.robot_trial.robot_area`). For each
+setting it prints one iteration from a zero warm start: the cost of sample 0 (standing still), the best
+sample's and the effective sample size; then
 ``--runs`` closed loops on the model plant (exact observations, λ_pred = the UKF's estimate then,
 [17.4, 0, 0]) from that state, each with its own sampling seed: how many reached the region within
 ``--steps`` control steps, and the steps they took. Last, the time of one planning step

@@ -79,11 +79,12 @@ def test_grasp_orientations_are_rotations_pointing_where_asked(angle: float) -> 
 
 
 def test_beside_the_tables_corner_the_planner_finishes_the_push() -> None:
-    """Where seed 12's push stalled on the arm with stop 54's code: the plate 4 mm short of its overhang, 17 mm
-    from the table's side, most of MPPI's samples paying the edges' or the reach's penalty. With the temperature's spread
-    taken over the samples that paid none (``MPPISettings.spread_cap``) the planner walks behind the plate and
-    pushes it into the region within a second on the model plant; with the spread over every sample it
-    hovered there (benchmarks/temperature_spread.py: 3 of 10 loops within 16 s, each in 326 steps)."""
+    """Where seed 12's push stalled on the arm with stop 54's code: the plate 4 mm short of its overhang,
+    17 mm from the table's side, most of MPPI's samples paying the edges' or the reach's penalty. With the
+    temperature's spread taken over the samples that paid none (``MPPISettings.spread_cap``) the planner walks
+    behind the plate and pushes it into the region within a second on the model plant; with the spread over
+    every sample it hovered there (benchmarks/temperature_spread.py: 3 of 10 loops within 16 s, each in 326
+    steps)."""
     from dexpush.control.controller import ControllerSettings, PushingController
     from dexpush.experiments.robot_trial import robot_problem
     from dexpush.experiments.runner import run_loop
