@@ -2,7 +2,7 @@
 and the block picked into the bin, the plate pushed with the closed fingers until it overhangs the table's edge,
 grasped by its rim, lifted 5 cm and dropped into the bin (docs/goal_regions.md#the-demonstration-on-the-franka).
 
-    python benchmarks/clearing.py --out docs/results/clearing [--seeds 0-29]
+    python benchmarks/clearing.py --out docs/results/clearing [--seeds 0-29] [--spread-cap 1e6]
 
 MPPI with the UKF from λ_pred = [15, 0, 0] (unknown λ), the noise-model camera (15 Hz, 1 mm / 0.5°, 60 ms,
 5 % drops) during the push. Each finished seed is appended to ``records.jsonl`` at once, so a stopped run
@@ -16,12 +16,14 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from dexpush.cli.arguments import seed_list
 from dexpush.common.files import atomic_path
+from dexpush.control.controller import ControllerSettings
 from dexpush.experiments.clearing import run_clearing
 from dexpush.world.sensing import SensorSettings
 
@@ -61,7 +63,12 @@ def main() -> None:
     p.add_argument("--out", required=True, type=Path)
     p.add_argument("--seeds", type=seed_list, default=seed_list("0-29"), help="e.g. 0-29 or 0,3,7 (default 0-29)")
     p.add_argument("--video-seed", type=int, default=None, help="film this seed (video.gif or .mp4 in --out)")
+    p.add_argument("--spread-cap", type=float, default=None, metavar="C",
+                   help="MPPI's median of λ over the samples within C of the best (MPPISettings.spread_cap; "
+                        "docs/controller.md#the-temperature-beside-obstacles; default: over all of them)")
     args = p.parse_args()
+    base = ControllerSettings()
+    settings = replace(base, mppi=replace(base.mppi, spread_cap=args.spread_cap))
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "records.jsonl"
     done = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
@@ -71,7 +78,7 @@ def main() -> None:
             continue
         t = time.time()
         video = args.out / "video.mp4" if seed == args.video_seed else None
-        record = run_clearing(seed, sensor=SensorSettings.realistic(seed), video=video)
+        record = run_clearing(seed, settings=settings, sensor=SensorSettings.realistic(seed), video=video)
         record["wall_s"] = round(time.time() - t, 1)
         done.append(record)
         with path.open("a") as f:

@@ -85,6 +85,8 @@ def test_beside_the_tables_corner_the_planner_finishes_the_push() -> None:
     behind the plate and pushes it into the region within a second on the model plant; with the spread over
     every sample it hovered there (benchmarks/temperature_spread.py: 3 of 10 loops within 16 s, each in 326
     steps)."""
+    from dataclasses import replace
+
     from dexpush.control.controller import ControllerSettings, PushingController
     from dexpush.experiments.robot_trial import robot_problem
     from dexpush.experiments.runner import run_loop
@@ -98,6 +100,8 @@ def test_beside_the_tables_corner_the_planner_finishes_the_push() -> None:
                                                  pose, pusher))
     plate, fingers, params = np.array([0.386, -0.1827, -2.1747]), np.array([0.2642, -0.0959]), (17.4, 0.0, 0.0)
     assert not problem.success(plate)
-    controller = PushingController(problem, params=params, settings=ControllerSettings(), seed=0)
+    settings = ControllerSettings()
+    settings = replace(settings, mppi=replace(settings.mppi, spread_cap=1e6))
+    controller = PushingController(problem, params=params, settings=settings, seed=0)
     trial = run_loop(ModelPlant(shape, params), controller, problem, plate, fingers, max_steps=25)
     assert trial.success

@@ -65,9 +65,9 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
                    help="MPPI's relative temperature τ: λ = τ·(median − min of the sampled costs) "
                         "(mppi.temperature; docs/controller.md; default: 0.02)")
     g.add_argument("--spread-cap", type=positive_or_off("a cost"), default=None, metavar="C|off",
-                   help="the median of λ is taken over the samples within C of the best (those that paid no "
-                        "obstacle penalty), or over all of them (off) (mppi.spread_cap; "
-                        "docs/controller.md#the-temperature-beside-obstacles; default: 1e6)")
+                   help="take the median of λ over the samples within C of the best (those that paid no "
+                        "obstacle penalty, e.g. 1e6), or over all of them (off) (mppi.spread_cap; "
+                        "docs/controller.md#the-temperature-beside-obstacles; default: off)")
     g.add_argument("--endgame-temperature", type=positive_or_off("a temperature"), default=None,
                    metavar="TAU|off", help="τ within 4 cm of the goal, or the same τ everywhere (off) "
                    "(endgame.temperature; docs/controller.md#the-endgame-temperature; default: 0.005)")

@@ -29,10 +29,10 @@ Choices the paper leaves to its reference [8] (measured in ``docs/controller.md`
 * the temperature is *relative*: λ = τ·(median − min of the sampled costs), τ = 0.02.
   The costs of eq. (9) span eight orders of magnitude between "0.6 m away" and "2 mm
   away", and C_pen = 1e13 makes the mean useless; the median-to-best spread keeps the
-  weighting equally selective everywhere. The median is that of the samples that paid no
-  obstacle penalty (``spread_cap``): beside an obstacle or a table edge more than half of
-  them can pay one, and their median would make λ so large that every sample that paid none
-  weighed the same. A caller may pass another τ per iteration (the controller does near the
+  weighting equally selective everywhere. Beside an obstacle or a table edge more than half
+  of the samples can pay an obstacle penalty, and their median makes λ so large that every
+  sample that paid none weighs the same; ``spread_cap`` (opt-in) takes the median over those
+  that paid none. A caller may pass another τ per iteration (the controller does near the
   goal: ``ControllerSettings.endgame.temperature``).
 * control cost q_u·Σ Δt_k‖v_k‖² with q_u = 1: an effort tie-breaker worth ~0.03 cost
   units for a full-speed 3-s horizon, small against millimetre goal errors.
@@ -96,9 +96,11 @@ class MPPISettings:
                                   #: interpolated over the slots (0: independent per slot)
     v_max: float = 0.1            #: pusher speed limit (m/s); clipped per axis to ±v_max/√2 (10)
     temperature: float = 0.02     #: τ, relative temperature λ = τ·(median S − min S)
-    #: the median of λ is taken over the samples that cost at most min S + this: a sample past it paid an
-    #: obstacle's penalty (C_margin = 1e9 per margin depth, C_pen = 1e13 per touch); None: over all of them
-    spread_cap: float | None = 1e6
+    #: the median of λ over the samples that cost at most min S + this (e.g. 1e6: a sample past it paid an
+    #: obstacle's penalty, C_margin = 1e9 per margin depth, C_pen = 1e13 per touch); None (default): over all
+    #: of them. Opt-in: from inside the margin its sharper update can plan nearer than the state
+    #: (docs/controller.md#the-temperature-beside-obstacles)
+    spread_cap: float | None = None
     control_cost: float = 1.0     #: q_u of the effort term q_u·Σ Δt_k‖v_k‖²
     control_period: float = CONTROL_PERIOD_S  #: T (s), time between iterations; the warm-start shift
     #: the update: "sampled" averages the sampled inputs U + ε and clips the average, the input bound (10)
