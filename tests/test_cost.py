@@ -14,6 +14,7 @@ from hypothesis import settings as hypothesis_settings
 from hypothesis import strategies as st
 
 from dexpush import Shape
+from dexpush.control.mppi import MPPISettings
 from dexpush.control.settings import PredictionMarginSettings, StallSettings
 from dexpush.problem.cost import detour_length_sq, running_cost, terminal_cost
 from dexpush.problem.scene import Scene
@@ -282,7 +283,8 @@ def least_clearance(contour, scene: Scene, x: jnp.ndarray, sequence: jnp.ndarray
     return jnp.min(jax.lax.scan(slot, x, (sequence, durations))[1])
 
 
-def test_from_inside_the_margin_the_plan_never_comes_nearer() -> None:
+@pytest.mark.parametrize("spread_cap", [None, 1e6])
+def test_from_inside_the_margin_the_plan_never_comes_nearer(spread_cap: float | None) -> None:
     """The box 4 mm from the disc (inside the 1-cm margin), the pusher behind it: no state the
     graded margin's plan predicts comes nearer than 4 mm; every state of the binary margin's
     samples costs C_pen until out, and its plan cuts through the disc."""
@@ -294,7 +296,7 @@ def test_from_inside_the_margin_the_plan_never_comes_nearer() -> None:
 
     shape = Shape.rectangle()
     contour = Contour.of(shape)
-    graded = ControllerSettings(stall=StallSettings(after_s=None))
+    graded = ControllerSettings(stall=StallSettings(after_s=None), mppi=MPPISettings(spread_cap=spread_cap))
     binary = dataclasses.replace(graded, weights=CostWeights(C_margin=None))
     scene = Scene.make(shape, (0.6, 0.0, 0.0), ((0.30, 0.0, 0.05),), graded.weights)
     x = jnp.asarray([0.30 - 0.10 - 0.05 - 0.004, -0.03, 0.0, 0.30 - 0.155 - 0.11, -0.03], jnp.float32)
@@ -427,7 +429,8 @@ def test_footprint_shift_is_the_farthest_moving_point(x: float, y: float, th: fl
     assert footprint_shift(a, q0, np.array([x + dx, y + dy, th])) == pytest.approx(np.hypot(dx, dy), abs=1e-12)
 
 
-def test_a_plan_from_a_predicted_state_keeps_the_grown_margin() -> None:
+@pytest.mark.parametrize("spread_cap", [None, 1e6])
+def test_a_plan_from_a_predicted_state_keeps_the_grown_margin(spread_cap: float | None) -> None:
     """The box 1.6 cm from the disc, the pusher behind it, ``prediction_margin_gain`` 1. From an
     observed state (predicted 0 m) the plan closes in on the 1-cm margin; from a state predicted
     1.5 cm on from its frame the margin is 2.5 cm, more than the start's clearance, so the plan
@@ -440,7 +443,7 @@ def test_a_plan_from_a_predicted_state_keeps_the_grown_margin() -> None:
 
     shape = Shape.rectangle()
     contour = Contour.of(shape)
-    settings = ControllerSettings(stall=StallSettings(after_s=None),
+    settings = ControllerSettings(stall=StallSettings(after_s=None), mppi=MPPISettings(spread_cap=spread_cap),
                                   prediction_margin=PredictionMarginSettings(gain=1.0))
     scene = Scene.make(shape, (0.6, 0.0, 0.0), ((0.30, 0.0, 0.05),), settings.weights)
     x = jnp.asarray([0.30 - 0.10 - 0.05 - 0.016, -0.03, 0.0, 0.30 - 0.155 - 0.11 - 0.012, -0.03], jnp.float32)

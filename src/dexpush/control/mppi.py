@@ -98,8 +98,7 @@ class MPPISettings:
     temperature: float = 0.02     #: τ, relative temperature λ = τ·(median S − min S)
     #: the median of λ over the samples that cost at most min S + this (e.g. 1e6: a sample past it paid an
     #: obstacle's penalty, C_margin = 1e9 per margin depth, C_pen = 1e13 per touch); None (default): over all
-    #: of them. Opt-in: from inside the margin its sharper update can plan nearer than the state
-    #: (docs/controller.md#the-temperature-beside-obstacles)
+    #: of them. Opt-in until measured in its present form (docs/controller.md#the-temperature-beside-obstacles)
     spread_cap: float | None = None
     control_cost: float = 1.0     #: q_u of the effort term q_u·Σ Δt_k‖v_k‖²
     control_period: float = CONTROL_PERIOD_S  #: T (s), time between iterations; the warm-start shift
@@ -203,7 +202,7 @@ def shift_in_time(U: jnp.ndarray, durations: jnp.ndarray, shift: float) -> jnp.n
 def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any, context: Any, *,
                    dynamics: Dynamics, running_cost: Cost, terminal_cost: Cost,
                    settings: MPPISettings, horizon_scale: jnp.ndarray | float = 1.0,
-                   temperature: jnp.ndarray | float | None = None,
+                   temperature: jnp.ndarray | float | None = None, spread_cap: jnp.ndarray | float | None = None,
                    proposals: jnp.ndarray | None = None, rate_independent: bool = False) -> MPPIResult:
     """One MPPI update of the nominal sequence U (N_p, 2) from state x0. Pure and jit-able.
 
@@ -215,7 +214,8 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
     states (and the effort is charged as for v_k over s_k·Δt_k), but the slots stay constants
     of the program while s is traced (a traced slot per lane slows the batched simulator's step,
     docs/performance.md).
-    ``temperature``, if given, is this iteration's τ in place of ``settings.temperature``.
+    ``temperature``, if given, is this iteration's τ in place of ``settings.temperature``; ``spread_cap``, if
+    given and ``settings.spread_cap`` is set, this iteration's cap in its place (inf: the plain median).
     ``proposals`` (J, N_p, 2), if given, take the place of the last J exploring samples, clipped as
     they are (10): sequences the caller knows to be worth a try (:mod:`dexpush.control.proposals`), weighted
     by their cost like any sample.
@@ -268,7 +268,8 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
     S = total + terminal_cost(xN, context)
     S_min = jnp.min(S)
     tau = settings.temperature if temperature is None else temperature
-    lam = tau * _spread(S, S_min, settings.spread_cap) + 1e-12
+    cap = settings.spread_cap if spread_cap is None or settings.spread_cap is None else spread_cap
+    lam = tau * _spread(S, S_min, cap) + 1e-12
     w = jax.nn.softmax(-(S - S_min) / lam)
     if settings.update == "sampled":
         U_new = jnp.clip(jnp.einsum("k,knd->nd", w, raw), -settings.v_clip, settings.v_clip)
