@@ -163,15 +163,14 @@ def _median(S: jnp.ndarray) -> jnp.ndarray:
 
 
 def _spread(S: jnp.ndarray, S_min: jnp.ndarray, cap: float | None) -> jnp.ndarray:
-    """median − min of the costs S (K,) at most ``S_min + cap`` (all of them with ``cap`` None; the plain
-    :func:`_median`, bit for bit, where none is above it)."""
+    """median − min of the costs S (K,) at most ``S_min + cap`` (all of them with ``cap`` None). Where none is
+    above it this is the plain :func:`_median`'s, bit for bit: the same middle elements, the same ½(a + b)."""
     if cap is None:
         return _median(S) - S_min
     below = S <= S_min + cap
     n = jnp.sum(below)
     ordered = jnp.sort(jnp.where(below, S, jnp.inf))
-    lo, hi = ordered[(n - 1) // 2], ordered[n // 2]
-    return jnp.where(n == S.shape[0], _median(S), 0.5 * (lo + hi)) - S_min
+    return 0.5 * (ordered[(n - 1) // 2] + ordered[n // 2]) - S_min
 
 
 def slot_durations(settings: MPPISettings, horizon_scale: jnp.ndarray | float = 1.0,
