@@ -20,7 +20,7 @@ def test_without_the_franka_extra_it_says_what_to_install(monkeypatch: pytest.Mo
 
 @pytest.mark.parametrize("argv, message", [
     (["--robot", "192.0.2.1"], "tracker"),
-    (["--camera", "rendered"], "noise-model camera"),
+    (["--camera", "rendered", "--noise-mm", "2"], "rendered images have their own errors"),
     (["--workspace", "0,0,0,1"], "workspace"),
     (["--dynamics-factor", "2"], "dynamics_factor"),
 ])

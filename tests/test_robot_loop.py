@@ -177,7 +177,13 @@ def test_every_task_fits_the_arm_and_starts_within_its_reach(key: str, shape_nam
     where the pusher can get round it, the pusher within the reach; each start fits, its pusher moved round
     the object when the task's azimuth is out of reach."""
     from dexpush.experiments.registry import make_shape
-    from dexpush.experiments.robot_trial import RobotSettings, reachable_pusher_start, robot_area, robot_problem
+    from dexpush.experiments.robot_trial import (
+        RobotSettings,
+        reachable_pusher_start,
+        robot_area,
+        robot_problem,
+        task_centre,
+    )
     from dexpush.experiments.scenarios import get_task
     from dexpush.problem.regions import point_gap
 
@@ -186,7 +192,7 @@ def test_every_task_fits_the_arm_and_starts_within_its_reach(key: str, shape_nam
         problem = task.problem(shape, seed=seed)
         pose, pusher = task.trial_start(shape, seed)
         goal = np.asarray(problem.goal[:2])
-        driver = robot.driver.facing(pose[:2], goal)
+        driver = robot.driver.facing(pose[:2], goal, task_centre(problem, robot, pose))
         area, reach = robot_area(problem, robot, driver, pose, pusher)
         bounded = robot_problem(problem, area, reach)
         start = reachable_pusher_start(shape, pose, pusher, reach)
@@ -197,6 +203,42 @@ def test_every_task_fits_the_arm_and_starts_within_its_reach(key: str, shape_nam
         r_min, r_max = driver.reach
         assert np.all(r <= r_max - robot.reach_margin + 1e-9) and np.all(r >= r_min + robot.reach_margin - 1e-9)
         assert (bounded.guide is None) == (problem.guide is None)
+
+
+@pytest.mark.parametrize("shape_name", ["rect", "tee", "ellipse"])
+def test_a_disc_task_is_placed_with_one_wide_way_round_its_obstacle(shape_name: str) -> None:
+    """Task III on the arm: the disc lies against one edge of the reach's band, and the way past it on the
+    other side is wider than with the band's middle on the task (the default, which Tasks I, II and IV
+    keep) and than the object across its way; the start and goal still fit."""
+    from dexpush.experiments.registry import make_shape
+    from dexpush.experiments.robot_trial import RobotSettings, task_centre
+    from dexpush.experiments.scenarios import get_task
+
+    shape, robot = make_shape(shape_name), RobotSettings()
+    r_min, r_max = robot.driver.reach
+    inset = robot.reach_margin + 2 * shape.pusher_radius + robot.object_room
+    for key in ("I", "II", "IV"):
+        task = get_task(key)
+        assert task_centre(task.problem(shape, seed=3), robot, task.trial_start(shape, 3)[0]) is None
+    task = get_task("III")
+    for seed in (0, 7, 13, 29):
+        problem = task.problem(shape, seed=seed)
+        pose = task.trial_start(shape, seed)[0]
+        goal = np.asarray(problem.goal[:2])
+
+        def widest_way(driver: DriverSettings, problem: object = problem) -> float:
+            cx, cy, r = problem.obstacles[0]
+            rho = float(np.linalg.norm(driver.to_base((cx, cy))))
+            return max(r_max - inset - rho - r, rho - r - r_min - inset)
+
+        placed = robot.driver.facing(pose[:2], goal, task_centre(problem, robot, pose))
+        default = robot.driver.facing(pose[:2], goal)
+        assert widest_way(placed) > widest_way(default) + 0.02
+        along = (goal - pose[:2]) / np.linalg.norm(goal - pose[:2])
+        width = np.ptp(np.concatenate(shape.footprint_world(pose)) @ np.array([-along[1], along[0]]))
+        assert widest_way(placed) > width + 0.02          # the object as it starts, across its way, passes
+        ends = np.concatenate([*shape.footprint_world(pose), *shape.footprint_world(problem.goal)])
+        assert np.all(np.linalg.norm(placed.to_base(ends), axis=1) <= r_max - inset + 1e-9)
 
 
 def test_a_task_out_of_reach_is_refused_in_one_line() -> None:

@@ -133,10 +133,7 @@ def cmd_robot(args: argparse.Namespace) -> dict:
 
     config = effective_config(args)
     run = config.run
-    if run.camera == "rendered":
-        raise ValueError("the robot command sees the object through the noise-model camera (--camera realistic); "
-                         "the rendered camera is not in the robot's scene yet")
-    check_run_config(config)
+    check_run_config(config, plant="franka")
     if args.robot is not None:
         raise ValueError(f"--robot {args.robot}: a real Franka needs the object's pose from your tracker; run it "
                          "from Python with run_robot_episode(..., address=..., sim=your_pose_source) "

@@ -256,9 +256,11 @@ def build_sensor(config: RunConfig) -> SensorSettings | RenderSettings | None:
     return config.sensor if config.sensor != SensorSettings() else None
 
 
-def check_run_config(config: RunConfig) -> None:
-    """Settings of another plant or camera than the run's are refused, not dropped."""
-    if config.run.camera == "rendered" and config.run.plant == "model":
+def check_run_config(config: RunConfig, plant: str | None = None) -> None:
+    """Settings of another plant or camera than the run's are refused, not dropped. ``plant``: the plant that
+    runs, where not [run] plant (``dexpush robot``: the robot)."""
+    plant = plant or config.run.plant
+    if config.run.camera == "rendered" and plant == "model":
         raise ValueError("the rendered camera sees the MuJoCo plant: use it with plant = \"physics\" "
                          "(--plant physics) or \"physics-random\"")
     if config.run.camera != "rendered" and config.render != RenderSettings():
@@ -267,8 +269,8 @@ def check_run_config(config: RunConfig) -> None:
     if config.run.camera == "rendered" and config.sensor != SensorSettings():
         raise ValueError("[sensor] sets the noise-model camera, but the run's camera is rendered: its rate, "
                          "latency and drops are [render] rate_hz, latency_s, drop_prob; remove [sensor]")
-    if config.run.plant != "physics" and config.physics != PhysicsSettings():
-        raise ValueError(f"[physics] sets the physics plant, but the run's plant is {config.run.plant!r}: set "
+    if plant != "physics" and config.physics != PhysicsSettings():
+        raise ValueError(f"[physics] sets the physics plant, but the run's plant is {plant!r}: set "
                          "[run] plant = \"physics\" (or --plant physics), or remove the [physics] table")
 
 

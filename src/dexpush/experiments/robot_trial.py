@@ -27,7 +27,7 @@ from dexpush.robot.guarded import FrameGuard, GuardedController
 from dexpush.robot.safety import SafetySettings
 
 __all__ = ["EXIT_TOLERANCE_M", "Guarded", "RobotSettings", "reachable_pusher_start", "robot_area", "robot_problem",
-           "run_robot_episode", "task_workspace"]
+           "robot_sensor", "run_robot_episode", "task_centre", "task_workspace"]
 
 #: a tip beyond the workspace by more than this (m) counts as a workspace exit (the arm's tracking
 #: error at the boundary, well under a millimetre, does not)
@@ -103,8 +103,10 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
     Args:
         task: the goal, obstacles and start distribution (``seed`` draws the start).
         shape, params, method, seed, settings, sensor, max_steps, progress: as for
-            :func:`dexpush.experiments.runner.run_episode`; ``sensor`` sees the robot plant (the
-            noise-model camera of :class:`dexpush.world.sensing.SensorSettings`).
+            :func:`dexpush.experiments.runner.run_episode`; ``sensor`` sees the robot plant: the
+            noise-model camera (:class:`dexpush.world.sensing.SensorSettings`) or, on the simulated robot,
+            rendered images of its world (:class:`dexpush.world.rendered_camera.RenderSettings`:
+            :class:`dexpush.robot.robot_camera.RobotCamera`).
         robot: :class:`RobotSettings`.
         address: a real robot's FCI address (then the object's pose comes from ``sim``, which must
             be a :class:`dexpush.robot.driver.PoseSource`: your tracker); None: the simulated robot.
@@ -136,7 +138,7 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
     if world is not None:
         driver_settings = world.settings.driver
     elif robot.place_task and address is None:
-        driver_settings = robot.driver.facing(pose[:2], goal)
+        driver_settings = robot.driver.facing(pose[:2], goal, task_centre(task_problem, robot, pose))
     else:
         driver_settings = robot.driver
     area, reach = robot_area(task_problem, robot, driver_settings, pose, pusher)
@@ -160,6 +162,8 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
             poses, address, realtime = world, world.address, False
         else:
             world, poses, realtime = None, sim, True
+        if world is not None:
+            sensor = robot_sensor(sensor, world, (pose[:2] + goal) / 2)
         if driver is None:
             driver = FrankyDriver(address, driver_settings, realtime=realtime)
             stack.callback(driver.close)
@@ -230,6 +234,56 @@ def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, p
         raise ValueError("the task lies outside the arm's reach and the workspace: nothing is left to push in "
                          "(move the task or the table frame)")
     return tuple(map(tuple, held.tolist())), tuple(map(tuple, reach.tolist()))
+
+
+def robot_sensor(sensor: Any, world: Any, middle: object) -> Any:
+    """``sensor`` for the simulated robot ``world``: rendered images of that world around the task's ``middle``
+    when ``sensor`` renders (:class:`dexpush.robot.robot_camera.RobotRenderSettings`), else as it is."""
+    from dexpush.world.rendered_camera import RenderSettings
+
+    if not isinstance(sensor, RenderSettings):
+        return sensor
+    from dexpush.robot.robot_camera import RobotRenderSettings
+
+    fields = {f: getattr(sensor, f) for f in RenderSettings.__dataclass_fields__}
+    return RobotRenderSettings(**fields, world=world, middle=tuple(float(v) for v in middle))
+
+
+def task_centre(problem: Problem, robot: RobotSettings, pose: object,
+                step: float = 0.005) -> tuple[float, float] | None:
+    """Where :meth:`DriverSettings.facing` puts the task's middle for an episode that starts at ``pose``: None (its
+    default, the middle of the reach) unless the task's obstacles are discs alone, with no walls or workspace.
+
+    Then the work band is placed, among the distances c from the base (``step`` apart) at which the start's and
+    the goal's footprints lie within the pusher's reach a pusher's width and ``robot.object_room`` inside
+    (:func:`robot_area`'s inset), where the narrower of the ways past each obstacle is widest: for each disc the
+    wider of its two gaps, outward to the reach's circle and inward to its line, and of those the smallest,
+    maximised over c. The arm's annulus is wide enough for a detour on one side only; the obstacle then lies
+    against the other. With walls or a workspace the task's own bounds shape the detours, and the default stands.
+    """
+    if not problem.obstacles or problem.polygons or problem.workspace is not None:
+        return None
+    pose = np.asarray(pose, dtype=np.float64)
+    goal = np.asarray(problem.goal, dtype=np.float64)
+    ends = np.concatenate([*problem.shape.footprint_world(pose), *problem.shape.footprint_world(goal)])
+    discs = np.asarray(problem.obstacles, dtype=np.float64)
+    inset = robot.reach_margin + 2 * problem.shape.pusher_radius + robot.object_room
+    r_min, r_max = robot.driver.reach
+    best, best_gap = None, -np.inf
+    for c in np.arange(r_min, r_max, step):
+        bx, by, _, _ = robot.driver.facing(pose[:2], goal[:2], (float(c), 0.0)).reach_in_table()
+        base = np.array([bx, by])
+        u = (pose[:2] + goal[:2]) / 2 - base
+        u = u / np.linalg.norm(u)
+        if (np.min((ends - base) @ u) < r_min + inset
+                or np.max(np.linalg.norm(ends - base, axis=1)) > r_max - inset):
+            continue
+        outward = r_max - inset - np.linalg.norm(discs[:, :2] - base, axis=1) - discs[:, 2]
+        inward = (discs[:, :2] - base) @ u - discs[:, 2] - (r_min + inset)
+        gap = float(np.min(np.maximum(outward, inward)))
+        if gap > best_gap + 1e-9:
+            best, best_gap = (round(float(c), 4), 0.0), gap
+    return best
 
 
 def robot_problem(problem: Problem, area: tuple, reach: tuple) -> Problem:

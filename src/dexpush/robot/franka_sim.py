@@ -39,7 +39,10 @@ FINGERTIP_M = 0.0080
 
 # shared-memory layout (float64)
 _TIME, _POSE, _TIP, _ACC, _JERK, _OVER, _JOINTS, _STEPS, _BUSY, _WALL, _MISSED = 0, 1, 4, 7, 8, 9, 10, 11, 12, 13, 14
-_SIZE = 15
+_VEL = 15         # the object's velocity (x, y, base frame)
+_SIZE = 17
+#: the most generalised coordinates the scene may have (the whole qpos is shared, for a camera that renders it)
+_QPOS_MAX = 256
 
 
 @dataclass(frozen=True)
@@ -135,13 +138,15 @@ class FrankaSim:
         self._xml = _world_xml(shape, self.settings.physics, base_obs, base_polys)
         ctx = mp.get_context("spawn")
         self._shared = ctx.Array("d", _SIZE, lock=False)
+        self._qpos = ctx.Array("d", _QPOS_MAX, lock=False)
         self._conn, child = ctx.Pipe()
         d = self.settings.driver
         rho = float(shape.pusher_radius * self.settings.physics.pusher_radius_scale)
         self._proc = ctx.Process(target=_serve, name="franky-sim", daemon=True,
                                  args=(self._xml, rho, d, self.settings.hosts, float(self.settings.realtime),
-                                       self._shared, child, self.settings.tool, self.settings.tabletop))
+                                       self._shared, child, self.settings.tool, self.settings.tabletop, self._qpos))
         self.address: str | None = None
+        self._nq = 0
 
     def start(self) -> FrankaSim:
         self._proc.start()
@@ -155,7 +160,7 @@ class FrankaSim:
         if kind != "ready":
             self.close()
             raise RuntimeError(f"the simulated Franka failed to start: {value}")
-        self.address = value
+        self.address, self._nq = value
         return self
 
     def __enter__(self) -> FrankaSim:
@@ -199,6 +204,19 @@ class FrankaSim:
     def save_frames(self, path: str) -> int:
         """Stop filming and write the frames to ``path`` (``.npy``, (N, H, W, 3) uint8); returns N."""
         return int(self._ask("save_frames", str(path), timeout_s=3600.0))
+
+    def scene(self) -> tuple[str, int]:
+        """The simulated world as MJCF (the robot, the object, the drawn obstacles, in the robot's base frame;
+        its meshes by absolute path) and its number of generalised coordinates: a camera's copy of the world
+        (:class:`dexpush.robot.robot_camera.RobotCamera`)."""
+        return str(self._ask("scene")), self._nq
+
+    def snapshot(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """The world's generalised coordinates now, the object's velocity (x, y in the base frame, m/s) and the
+        simulated time: what a camera's copy needs to draw it. Read while the simulator steps: at worst one
+        coordinate is a millisecond newer than the rest."""
+        t = float(self._shared[_TIME])
+        return np.array(self._qpos[:self._nq]), np.array(self._shared[_VEL:_VEL + 2]), t
 
     @property
     def time(self) -> float:
@@ -283,7 +301,7 @@ def _graft(sim: object, xml: str, rho: float, frames: DriverSettings, tool: str 
 
 
 def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...], realtime: float, shared: object,
-           conn: object, tool: str = "rod", tabletop: Tabletop | None = None) -> None:
+           conn: object, tool: str = "rod", tabletop: Tabletop | None = None, qshared: object = None) -> None:
     """The child: build the scene, serve the robot, step at 1 kHz, answer the parent."""
     try:
         from dexpush.world.physics_plant import headless_gl
@@ -303,12 +321,14 @@ def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...],
         sim.init()
         robot = sim.add_robot()
         _graft(sim, xml, rho, frames, tool, tabletop)
+        scene = ET.tostring(sim.scene, encoding="unicode")
         server = SimulationServer(sim, hostname_candidates=iter(hosts))
         server.init()
     except Exception as exc:
         conn.send(("error", f"{type(exc).__name__}: {exc}"))
         return
     model, data = sim.model, sim.data
+    nq = model.nq if qshared is not None and model.nq <= _QPOS_MAX else 0
     qadr = model.jnt_qposadr[model.joint("slider").id]
     dadr = model.jnt_dofadr[model.joint("slider").id]
     tip_site = model.site("pusher_tip").id
@@ -329,6 +349,9 @@ def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...],
         shared[_TIME] = data.time
         shared[_ACC], shared[_JERK] = checks.max_a, checks.max_j
         shared[_OVER], shared[_MISSED] = checks.over, checks.missed
+        shared[_VEL:_VEL + 2] = data.qvel[dadr:dadr + 2]
+        if nq:
+            qshared[:nq] = data.qpos
 
     def place(pose: tuple[float, float, float]) -> None:
         xy = frames.to_base(pose[:2])
@@ -375,7 +398,7 @@ def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...],
         return len(images)
 
     publish()
-    conn.send(("ready", robot.hostname))
+    conn.send(("ready", (robot.hostname, nq)))
     steps, busy = 0, 0.0
     start = time.perf_counter()
     try:
@@ -397,6 +420,8 @@ def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...],
                         record(*message[1:])
                     elif message[0] == "save_frames":
                         answer = save_frames(message[1])
+                    elif message[0] == "scene":
+                        answer = scene
                     conn.send(("ok", answer))
                 except Exception as exc:
                     conn.send(("error", f"{type(exc).__name__}: {exc}"))

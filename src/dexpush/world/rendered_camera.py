@@ -45,7 +45,8 @@ from dexpush.perception.tracker import REASONS, MarkerTracker, TrackerSettings
 from dexpush.world.physics_plant import PhysicsPlant, SceneExtras, headless_gl
 from dexpush.world.sensing import Camera, SensorSettings
 
-__all__ = ["LENS_DISTORTION", "SETUPS", "RenderSettings", "RenderedCamera", "board_images", "setup_cameras"]
+__all__ = ["LENS_DISTORTION", "SETUPS", "Lens", "RenderSettings", "RenderedCamera", "board_images", "scene_extras",
+           "setup_cameras"]
 
 #: camera set-ups by name: (position, target) of each camera, looking at the benchmark's workspace; the
 #: robot's base (and the arm's lean) is on the −x side, so ``oblique`` and ``two`` look from the far side
@@ -146,7 +147,7 @@ def _marker_plate(m: Marker, dictionary: str, z: float, name: str) -> tuple[str,
     return asset, geom, f"{name}.png"
 
 
-def _scene_extras(layout: MarkerLayout, cameras: list[CameraModel], settings: RenderSettings,
+def scene_extras(layout: MarkerLayout, cameras: list[CameraModel], settings: RenderSettings,
                   pusher_body_z: float, obstacles: np.ndarray) -> SceneExtras:
     from dexpush.perception.detect import MarkerDetector, require_cv2
 
@@ -224,7 +225,7 @@ def _distortion_map(width: int, height: int, fx: float, fy: float, cx: float, cy
     return maps
 
 
-class _Lens:
+class Lens:
     """One camera's image chain: pinhole render → distortion → motion blur → noise (uint8 grey)."""
 
     def __init__(self, cam: CameraModel, settings: RenderSettings, rng: np.random.Generator) -> None:
@@ -297,7 +298,7 @@ class RenderedCamera(Camera):
         self.cameras = setup_cameras(settings)
         obstacles = np.asarray(obstacles, np.float64).reshape(-1, 3)
         pusher_body_z = physics.height / 2 + physics.support_radius
-        plant = PhysicsPlant(shape, physics, _scene_extras(layout, self.cameras, settings, pusher_body_z, obstacles))
+        plant = PhysicsPlant(shape, physics, scene_extras(layout, self.cameras, settings, pusher_body_z, obstacles))
         super().__init__(plant, settings.sensor())
         try:
             self._renderers = [mujoco.Renderer(plant.model, settings.height, settings.width) for _ in self.cameras]
@@ -309,7 +310,7 @@ class RenderedCamera(Camera):
         if tracker_cameras is None and settings.camera_file:
             tracker_cameras = _calibrated(settings.camera_file, self.cameras)
         self.tracker = MarkerTracker(tracker_cameras or self.cameras, layout, tracker)
-        self._lenses = [_Lens(c, settings, np.random.default_rng((settings.seed, 13, i)))
+        self._lenses = [Lens(c, settings, np.random.default_rng((settings.seed, 13, i)))
                         for i, c in enumerate(self.cameras)]
         self.render_s: list[float] = []
         self._starting = False
@@ -400,7 +401,7 @@ def board_images(board: Board, camera: CameraModel, tilts_deg: list[tuple[float,
     model = mujoco.MjModel.from_xml_string(xml, {"board.png": png})
     data = mujoco.MjData(model)
     out = []
-    lens = _Lens(camera, settings, np.random.default_rng((settings.seed, 17)))
+    lens = Lens(camera, settings, np.random.default_rng((settings.seed, 17)))
     with mujoco.Renderer(model, camera.height, camera.width) as r:
         for k, tilt in enumerate([(0.0, 0.0, 0.0), *(tilts_deg or [])]):
             quat = np.zeros(4)

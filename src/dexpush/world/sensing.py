@@ -140,6 +140,11 @@ class Camera:
             return
         self._pending.append((self.time + self.settings.latency_s, frame))
 
+    def _arrived(self, item: Frame) -> Frame | None:
+        """The frame a pending ``item`` holds when it arrives (here the frame itself; a subclass that measures
+        while the loop goes on holds a future), or None if it holds none."""
+        return item
+
     def reset(self, object_pose: object, pusher_xy: object) -> Frame:
         """Reset the plant; the first frame (time 0) is returned at once, so a run can start."""
         self.plant.reset(object_pose, pusher_xy)
@@ -173,7 +178,8 @@ class Camera:
             self._capture()
         newest = None
         while self._pending and self._pending[0][0] <= self.time + 1e-9:
-            newest = self._pending.popleft()[1]
+            frame = self._arrived(self._pending.popleft()[1])
+            newest = newest if frame is None else frame
         if newest is not None:
             self.delivered += 1
         return newest
