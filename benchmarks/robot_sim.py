@@ -3,6 +3,7 @@ to goal, tip tracking, limit checks and real-time factor per task and shape (doc
 
     python benchmarks/robot_sim.py --out docs/results/robot [--tasks I,II,III,IV] [--shapes rect]
                                    [--seeds 0-29] [--max-steps 1500]
+                                   [--camera rendered [--camera-setup two]]
 
 MPPI with the UKF from λ_pred = [15, 0, 0] (unknown λ), the noise-model camera (15 Hz, 1 mm / 0.5°,
 60 ms, 5 % drops) on the robot plant, the planner behind the frame guard and the safety filter, the
@@ -28,6 +29,7 @@ from dexpush.common.files import atomic_path
 from dexpush.experiments.registry import make_shape
 from dexpush.experiments.robot_trial import RobotSettings, run_robot_episode
 from dexpush.experiments.scenarios import MAX_STEPS, get_task
+from dexpush.world.rendered_camera import SETUPS, RenderSettings
 from dexpush.world.sensing import SensorSettings
 
 
@@ -75,6 +77,10 @@ def main() -> None:
     ap.add_argument("--tasks", default="I,II,III,IV", help="comma-separated: I, II, III, IV, C (default I,II,III,IV)")
     ap.add_argument("--shapes", default="rect", help="comma-separated: rect, ellipse, tee (default rect)")
     ap.add_argument("--seeds", type=seeds, default=seeds("0-29"), help="e.g. 0-29 or 0,3,7 (default 0-29)")
+    ap.add_argument("--camera", choices=["realistic", "rendered"], default="realistic",
+                    help="the noise-model camera (default) or markers read from rendered images of the simulated world")
+    ap.add_argument("--camera-setup", choices=list(SETUPS), default="oblique",
+                    help="the rendered cameras' set-up (docs/perception.md#the-rendered-camera; default oblique)")
     ap.add_argument("--max-steps", type=int, default=MAX_STEPS,
                     help=f"control steps before giving up (default {MAX_STEPS}, the benchmark's N_max)")
     args = ap.parse_args()
@@ -83,6 +89,7 @@ def main() -> None:
     path = out / "records.jsonl"
     records = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
     done = {(r["task"], r["shape"], r["seed"]) for r in records}
+    sensor = RenderSettings(setup=args.camera_setup) if args.camera == "rendered" else SensorSettings.realistic(seed=0)
     for shape_name in args.shapes.split(","):
         shape = make_shape(shape_name)
         for key in args.tasks.split(","):
@@ -92,7 +99,7 @@ def main() -> None:
                     continue
                 t0 = time.perf_counter()
                 episode, report = run_robot_episode(task, shape, params="unknown", method="mppi-ukf", seed=seed,
-                                                    sensor=SensorSettings.realistic(seed=0), robot=RobotSettings(),
+                                                    sensor=sensor, robot=RobotSettings(),
                                                     max_steps=args.max_steps)
                 rec = {**dataclasses.asdict(episode.record), "shape": shape_name, "robot": report,
                        "wall_s": round(time.perf_counter() - t0, 1)}
