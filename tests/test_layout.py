@@ -39,7 +39,7 @@ INNER = {
     "control": [{"noise", "ukf"}, {"mppi", "proposals", "estimator"}, {"settings"}, {"policy"}, {"controller"}],
     "world": [{"model_plant", "sensing"}, {"physics_plant"}, {"rendered_camera"}],
     "robot": [{"safety", "watchdog", "smoothing", "arm_kinematics", "franky_sim_hooks"}, {"guarded", "driver"},
-              {"tabletop"}, {"franky_driver", "franka_sim", "pick"}],
+              {"tabletop"}, {"franky_driver", "franka_sim", "pick", "robot_camera"}],
     "ros": [{"core"}, {"node"}, {"bridge"}],
     "perception": [{"camera_model", "markers"}, {"camera_file", "planar_pose", "detect"}, {"tracker", "calibration"},
                    {"live"}],
