@@ -195,6 +195,38 @@ def test_beside_a_wall_the_update_stays_selective_when_most_samples_pay_its_pena
     assert capped < 0.8 * plain
 
 
+@pytest.mark.parametrize("check_substeps", [4, 1])
+def test_with_the_spread_cap_no_update_pays_a_penalty_its_finer_rollout_shows(check_substeps: int) -> None:
+    """A point pushed toward a wall at x = 0.1 (1e9 per slot beyond it), its target behind the wall: the rollout's
+    one Euler step per slot under-predicts the travel (x' = x + Δt·u·(1 − cΔt), where n steps of Δt/n travel
+    farther), so the samples the capped λ weighs are those that stop just short of the wall in one step and cross
+    it in four. Checked with four steps per slot, every update keeps short of it in four and the point still comes
+    most of the way (a part of the capped step fits); checked with one (no check), the plan crosses it."""
+    def dynamics(x, u, dt, params):
+        return x + dt * u * (1.0 - 2.5 * dt)
+
+    def cost(x, target):
+        return jnp.sum((x - target) ** 2, -1) + 1e9 * (x[..., 0] > 0.1)
+
+    settings = MPPISettings(num_samples=512, spread_cap=1e6, check_substeps=check_substeps)
+    planner = jax.jit(functools.partial(mppi_iteration, dynamics=dynamics, running_cost=cost,
+                                        terminal_cost=lambda x, t: 10 * cost(x, t), settings=settings))
+    fine = MPPISettings(num_samples=512, spread_cap=1e6, check_substeps=4)
+    U, key, target, worst = jnp.zeros((25, 2)), jax.random.PRNGKey(5), jnp.array([0.3, 0.0]), 0.0
+    for _ in range(10):
+        key, sub = jax.random.split(key)
+        U = planner(sub, U, jnp.zeros(2), None, target).sequence
+        x = jnp.zeros(2)
+        for v, dt in zip(U, fine.step_durations()):
+            for _ in range(4):
+                x = dynamics(x, v, dt / 4, None)
+                worst = max(worst, float(x[0]))
+    if check_substeps == 4:
+        assert 0.05 < worst <= 0.1              # measured: 94 mm, the wall at 100
+    else:
+        assert worst > 0.1                       # measured: 133 mm
+
+
 def test_without_obstacles_the_spread_cap_changes_no_command() -> None:
     """No obstacle, no workspace: no sample pays a penalty, so the capped spread is the plain median and the
     controller's commands are the same, bit for bit."""

@@ -34,6 +34,14 @@ Choices the paper leaves to its reference [8] (measured in ``docs/controller.md`
   sample that paid none weighs the same; ``spread_cap`` (opt-in) takes the median over those
   that paid none. A caller may pass another τ per iteration (the controller does near the
   goal: ``ControllerSettings.endgame.temperature``).
+* with ``spread_cap`` the update is checked. The capped λ weighs a few samples, and those are the
+  ones whose one-Euler-step-per-slot rollout looks best: where that rollout is optimistic (a box
+  turning toward a disc in a 0.2-s slot) their average plans into the obstacle. Each iteration
+  therefore rolls out five candidates with every slot split into ``check_substeps`` steps: the step
+  from the nominal U to the capped update, whole, half and a quarter of it (:data:`CHECK_STEPS`), the
+  plain median's update and U itself; it keeps the first whose cost is at most min S + cap (no
+  penalty the best sample did not pay), else the plain median's
+  (docs/controller.md#the-temperature-beside-obstacles).
 * control cost q_u·Σ Δt_k‖v_k‖² with q_u = 1: an effort tie-breaker worth ~0.03 cost
   units for a full-speed 3-s horizon, small against millimetre goal errors.
 * warm start: the nominal sequence is a piecewise-constant function of time on the
@@ -71,11 +79,13 @@ MIN_SAMPLES = 16
 MAX_SAMPLES = 65_536
 #: the most prediction steps N_p
 MAX_HORIZON = 200
+#: with ``spread_cap``: the fractions of the step from the nominal to the capped update that are checked, in turn
+CHECK_STEPS = (1.0, 0.5, 0.25)
 #: the longest horizon Σ Δt_k (s): the paper's spans 3.1 s, a stall's stretch doubles it
 MAX_HORIZON_S = 120.0
 
-__all__ = ["MAX_HORIZON", "MAX_HORIZON_S", "MAX_SAMPLES", "MIN_SAMPLES", "MPPIResult", "MPPISettings", "mppi_iteration",
-           "shift_in_time", "slot_durations"]
+__all__ = ["CHECK_STEPS", "MAX_HORIZON", "MAX_HORIZON_S", "MAX_SAMPLES", "MIN_SAMPLES", "MPPIResult", "MPPISettings",
+           "mppi_iteration", "shift_in_time", "slot_durations"]
 
 Dynamics = Callable[[jnp.ndarray, jnp.ndarray, jnp.ndarray, Any], jnp.ndarray]
 Cost = Callable[[jnp.ndarray, Any], jnp.ndarray]
@@ -97,9 +107,11 @@ class MPPISettings:
     v_max: float = 0.1            #: pusher speed limit (m/s); clipped per axis to ±v_max/√2 (10)
     temperature: float = 0.02     #: τ, relative temperature λ = τ·(median S − min S)
     #: the median of λ over the samples that cost at most min S + this (e.g. 1e6: a sample past it paid an
-    #: obstacle's penalty, C_margin = 1e9 per margin depth, C_pen = 1e13 per touch); None (default): over all
-    #: of them. Opt-in until measured in its present form (docs/controller.md#the-temperature-beside-obstacles)
+    #: obstacle's penalty, C_margin = 1e9 per margin depth, C_pen = 1e13 per touch), the update checked (module
+    #: docstring); None (default): over all of them (docs/controller.md#the-temperature-beside-obstacles)
     spread_cap: float | None = None
+    #: with ``spread_cap``: the Euler steps per slot of the rollouts that check the update
+    check_substeps: int = 4
     control_cost: float = 1.0     #: q_u of the effort term q_u·Σ Δt_k‖v_k‖²
     control_period: float = CONTROL_PERIOD_S  #: T (s), time between iterations; the warm-start shift
     #: the update: "sampled" averages the sampled inputs U + ε and clips the average, the input bound (10)
@@ -109,7 +121,7 @@ class MPPISettings:
 
     def __post_init__(self) -> None:
         for name, low, high in (("num_samples", MIN_SAMPLES, MAX_SAMPLES), ("horizon", 1, MAX_HORIZON),
-                                ("explore_knots", 0, MAX_HORIZON)):
+                                ("explore_knots", 0, MAX_HORIZON), ("check_substeps", 1, 100)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | np.integer) or not low <= v <= high:
                 raise ValueError(f"{name} must be a whole number from {low} to {high}, got {v!r}")
@@ -201,7 +213,7 @@ def shift_in_time(U: jnp.ndarray, durations: jnp.ndarray, shift: float) -> jnp.n
 def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any, context: Any, *,
                    dynamics: Dynamics, running_cost: Cost, terminal_cost: Cost,
                    settings: MPPISettings, horizon_scale: jnp.ndarray | float = 1.0,
-                   temperature: jnp.ndarray | float | None = None, spread_cap: jnp.ndarray | float | None = None,
+                   temperature: jnp.ndarray | float | None = None,
                    proposals: jnp.ndarray | None = None, rate_independent: bool = False) -> MPPIResult:
     """One MPPI update of the nominal sequence U (N_p, 2) from state x0. Pure and jit-able.
 
@@ -213,8 +225,7 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
     states (and the effort is charged as for v_k over s_k·Δt_k), but the slots stay constants
     of the program while s is traced (a traced slot per lane slows the batched simulator's step,
     docs/performance.md).
-    ``temperature``, if given, is this iteration's τ in place of ``settings.temperature``; ``spread_cap``, if
-    given and ``settings.spread_cap`` is set, this iteration's cap in its place (inf: the plain median).
+    ``temperature``, if given, is this iteration's τ in place of ``settings.temperature``.
     ``proposals`` (J, N_p, 2), if given, take the place of the last J exploring samples, clipped as
     they are (10): sequences the caller knows to be worth a try (:mod:`dexpush.control.proposals`), weighted
     by their cost like any sample.
@@ -242,36 +253,50 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
         raw = raw.at[K - J:].set(proposals.astype(dtype))
     V = jnp.clip(raw, -settings.v_clip, settings.v_clip)      # eq. (10)
 
-    def rollout_step(carry: tuple[Any, jnp.ndarray], inp: tuple[jnp.ndarray, ...]):
-        x, total = carry
-        if rate_independent:
-            v, dt, scale = inp
-            x1 = dynamics(x, v * scale, dt, params)
-            effort = settings.control_cost * (dt * scale) * jnp.sum(v * v, -1)
-        else:
-            v, dt = inp
-            x1 = dynamics(x, v, dt, params)
-            effort = settings.control_cost * dt * jnp.sum(v * v, -1)
-        return (x1, total + running_cost(x1, context) + effort), None
-
-    # the state may be any pytree (dexpush passes a tuple of scalars): give each leaf a K axis
-    x = jax.tree.map(lambda leaf: jnp.broadcast_to(leaf, (K, *jnp.shape(leaf))), x0)
     if rate_independent:       # constant slots, the stretch as a factor on the inputs
-        first = jnp.arange(N) == 0
-        scales = jnp.where(first, 1.0, jnp.asarray(horizon_scale, dtype)).astype(dtype)
-        inputs = (jnp.swapaxes(V, 0, 1), slot_durations(settings, 1.0, dtype), scales)
+        scales = jnp.where(jnp.arange(N) == 0, 1.0, jnp.asarray(horizon_scale, dtype)).astype(dtype)
+        durations = slot_durations(settings, 1.0, dtype)
     else:
-        inputs = (jnp.swapaxes(V, 0, 1), slot_durations(settings, horizon_scale, dtype))
-    # costs are summed in the scan's carry: no (K, N_p) cost array is kept
-    (xN, total), _ = jax.lax.scan(rollout_step, (x, jnp.zeros(K, dtype)), inputs)
-    S = total + terminal_cost(xN, context)
+        scales, durations = jnp.ones(N, dtype), slot_durations(settings, horizon_scale, dtype)
+
+    def cost(inputs: jnp.ndarray, substeps: int = 1) -> jnp.ndarray:
+        """S (B,) of the input sequences (B, N_p, 2), each slot integrated in ``substeps`` steps."""
+        def rollout_step(carry: tuple[Any, jnp.ndarray], inp: tuple[jnp.ndarray, ...]):
+            x, total = carry
+            v, dt, scale = inp
+            for _ in range(substeps):
+                x = dynamics(x, v * scale, dt if substeps == 1 else dt / substeps, params) if rate_independent \
+                    else dynamics(x, v, dt * scale if substeps == 1 else dt * scale / substeps, params)
+            effort = settings.control_cost * (dt * scale) * jnp.sum(v * v, -1)
+            return (x, total + running_cost(x, context) + effort), None
+
+        # the state may be any pytree (dexpush passes a tuple of scalars): give each leaf a batch axis
+        B = inputs.shape[0]
+        x = jax.tree.map(lambda leaf: jnp.broadcast_to(leaf, (B, *jnp.shape(leaf))), x0)
+        # costs are summed in the scan's carry: no (B, N_p) cost array is kept
+        (xN, total), _ = jax.lax.scan(rollout_step, (x, jnp.zeros(B, dtype)),
+                                      (jnp.swapaxes(inputs, 0, 1), durations, scales))
+        return total + terminal_cost(xN, context)
+
+    S = cost(V)
     S_min = jnp.min(S)
     tau = settings.temperature if temperature is None else temperature
-    cap = settings.spread_cap if spread_cap is None or settings.spread_cap is None else spread_cap
-    lam = tau * _spread(S, S_min, cap) + 1e-12
-    w = jax.nn.softmax(-(S - S_min) / lam)
-    if settings.update == "sampled":
-        U_new = jnp.clip(jnp.einsum("k,knd->nd", w, raw), -settings.v_clip, settings.v_clip)
-    else:
-        U_new = jnp.einsum("k,knd->nd", w, V)
+
+    def update(spread: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray]:
+        w = jax.nn.softmax(-(S - S_min) / (tau * spread + 1e-12))
+        if settings.update == "sampled":
+            return jnp.clip(jnp.einsum("k,knd->nd", w, raw), -settings.v_clip, settings.v_clip), w
+        return jnp.einsum("k,knd->nd", w, V), w
+
+    cap = settings.spread_cap
+    if cap is None:
+        U_new, w = update(_spread(S, S_min, None))
+        return MPPIResult(U_new, S_min, S[0], 1.0 / jnp.sum(w * w))
+    (U_capped, w_capped), (U_plain, w_plain) = update(_spread(S, S_min, cap)), update(_spread(S, S_min, None))
+    U_now = jnp.clip(U, -settings.v_clip, settings.v_clip)
+    steps = jnp.asarray(CHECK_STEPS, dtype)[:, None, None]
+    candidates = jnp.concatenate([U_now + steps * (U_capped - U_now)[None], U_plain[None], U_now[None]])
+    fits = cost(candidates, settings.check_substeps) <= S_min + cap
+    pick = jnp.where(jnp.any(fits), jnp.argmax(fits), len(CHECK_STEPS))
+    U_new, w = candidates[pick], jnp.where(pick < len(CHECK_STEPS), w_capped, w_plain)
     return MPPIResult(U_new, S_min, S[0], 1.0 / jnp.sum(w * w))

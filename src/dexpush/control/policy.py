@@ -13,6 +13,7 @@ so the benchmark and a robot run the very same controller.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import NamedTuple
 
 import jax
@@ -162,11 +163,10 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
     period as the next warm start. A stall (:func:`watch_progress`) zeroes the warm start first.
     Within ``endgame.distance_m`` of the goal the iteration weights its samples with
     ``endgame.temperature``. From a state inside the obstacle margin the plan may not come nearer
-    than that state (:func:`dexpush.problem.cost.plan_margin`), and with ``mppi.spread_cap`` its λ is the
-    plain median's: the capped spread's sharper update can plan nearer
-    (docs/controller.md#the-temperature-beside-obstacles). ``predicted_m`` is how far (m) the object's
-    footprint moved in the prediction that made ``x`` from the newest frame (0 for an observation); the
-    margin grows by ``prediction_margin.gain`` times it, up to ``prediction_margin.max_m`` more.
+    than that state (:func:`dexpush.problem.cost.plan_margin`); ``mppi.spread_cap`` acts only where the scene
+    has something to keep clear of (docs/controller.md#the-temperature-beside-obstacles). ``predicted_m`` is
+    how far (m) the object's footprint moved in the prediction that made ``x`` from the newest frame (0 for an
+    observation); the margin grows by ``prediction_margin.gain`` times it, up to ``prediction_margin.max_m`` more.
     """
     mp = settings.mppi
     x = jnp.asarray(x, jnp.float32)
@@ -186,10 +186,9 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
         sub, state.sequence, tuple(x[i] for i in range(5)), state.params, plan_scene,   # rollouts carry a tuple
         dynamics=lambda xs, u, dt, p: step(contour, xs, u, dt, p, mu),
         running_cost=lambda xs, sc: running_cost(xs, sc, weights),
-        terminal_cost=lambda xs, sc: terminal_cost(xs, sc, weights), settings=mp, horizon_scale=stretch,
+        terminal_cost=lambda xs, sc: terminal_cost(xs, sc, weights), horizon_scale=stretch,
+        settings=mp if scene.has_obstacles else replace(mp, spread_cap=None),   # no penalty to cap or check
         temperature=_temperature(x, scene, settings), rate_independent=True,   # quasi-static: see mppi_iteration
-        spread_cap=(jnp.where(plan_scene.margin < weights.obstacle_margin_m + extra, jnp.inf, mp.spread_cap)
-                    if mp.spread_cap is not None and scene.has_obstacles else None),
         proposals=contact_proposals(x, contour, durations, settings.proposals.count,
                                     mp.v_clip, settings.proposals.clearance_m) if settings.proposals.count else None)
     finite = jnp.all(jnp.isfinite(result.sequence))
