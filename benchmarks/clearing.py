@@ -2,13 +2,14 @@
 and the block picked into the bin, the plate pushed with the closed fingers until it overhangs the table's edge,
 grasped by its rim, lifted 5 cm and dropped into the bin (docs/goal_regions.md#the-demonstration-on-the-franka).
 
-    python benchmarks/clearing.py --out docs/results/clearing [--seeds 0-29] [--spread-cap 1e6]
+    python benchmarks/clearing.py --out docs/results/clearing [--seeds 0-29] [--spread-cap off]
 
-MPPI with the UKF from λ_pred = [15, 0, 0] (unknown λ), the noise-model camera (15 Hz, 1 mm / 0.5°, 60 ms,
-5 % drops) during the push. Each finished seed is appended to ``records.jsonl`` at once, so a stopped run
-resumes where it stopped; ``table.md`` is rewritten after each. Needs ``pip install 'dexpush[franka]'``; run
-it alone (the simulator keeps to the wall clock) and in a loopback-only namespace (``make`` does both for
-the tests: ``unshare -rn sh -c 'ip link set lo up; python benchmarks/clearing.py ...'``).
+MPPI with the UKF from λ_pred = [15, 0, 0] (unknown λ) and the scene's spread cap, the noise-model camera
+(15 Hz, 1 mm / 0.5°, 60 ms, 5 % drops) during the push. Each finished seed is appended to ``records.jsonl`` at
+once, so a stopped run resumes where it stopped; ``table.md`` is rewritten after each (and by a run with nothing
+left to do). Needs ``pip install 'dexpush[franka]'``; run it alone (the simulator keeps to the wall clock) and
+in a loopback-only namespace (``make`` does both for the tests:
+``unshare -rn sh -c 'ip link set lo up; python benchmarks/clearing.py ...'``).
 """
 
 from __future__ import annotations
@@ -16,15 +17,13 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from dexpush.cli.arguments import seed_list
+from dexpush.cli.arguments import positive_or_off, seed_list
 from dexpush.common.files import atomic_path
-from dexpush.control.controller import ControllerSettings
-from dexpush.experiments.clearing import run_clearing
+from dexpush.experiments.clearing import ClearingScene, run_clearing
 from dexpush.world.sensing import SensorSettings
 
 
@@ -46,6 +45,16 @@ def table(records: list[dict]) -> str:
              f"{props}/{n} | {count('success')}/{n} | {np.median(times) if times else float('nan'):.1f} | "
              f"{np.median(push) if push else float('nan'):.1f} | {sum(r['reflex_limit_steps'] for r in robot)} | "
              f"{sum(r['push']['collisions'] > 0 for r in records if r.get('push'))} |"]
+    if robot:
+        rtf = [r["real_time_factor"] for r in robot]
+        lines += ["", "| pushes | filter violations (workspace exits, speed limit) | joint-limit steps | late steps | "
+                  "watchdog stops | real-time factor (median, least) | tip tracking error (mm, median of the "
+                  "medians; worst p99) |", "|---|---|---|---|---|---|---|",
+                  f"| {len(robot)} | {sum(r['workspace_exits'] + r['speed_limit_exceeded'] for r in robot)} | "
+                  f"{sum(r['joint_limit_steps'] for r in robot)} | {sum(r['late_steps'] for r in robot)} | "
+                  f"{sum(r['watchdog_stops'] for r in robot)} | {np.median(rtf):.2f}, {min(rtf):.2f} | "
+                  f"{np.median([r['tracking_error_mm_median'] for r in robot]):.2f}; "
+                  f"{max(r['tracking_error_mm_p99'] for r in robot):.1f} |"]
     failed = [r for r in records if not r["success"]]
     if failed:
         lines += ["", "Failures:", ""]
@@ -63,12 +72,12 @@ def main() -> None:
     p.add_argument("--out", required=True, type=Path)
     p.add_argument("--seeds", type=seed_list, default=seed_list("0-29"), help="e.g. 0-29 or 0,3,7 (default 0-29)")
     p.add_argument("--video-seed", type=int, default=None, help="film this seed (video.gif or .mp4 in --out)")
-    p.add_argument("--spread-cap", type=float, default=None, metavar="C",
-                   help="MPPI's median of λ over the samples within C of the best (MPPISettings.spread_cap; "
-                        "docs/controller.md#the-temperature-beside-obstacles; default: over all of them)")
+    p.add_argument("--spread-cap", type=positive_or_off("a cost"), default=ClearingScene().spread_cap, metavar="C|off",
+                   help="MPPI's median of λ over the samples within C of the best, or over all of them (off) "
+                        "(MPPISettings.spread_cap; docs/controller.md#the-temperature-beside-obstacles; default: "
+                        "the scene's, %(default)g)")
     args = p.parse_args()
-    base = ControllerSettings()
-    settings = replace(base, mppi=replace(base.mppi, spread_cap=args.spread_cap))
+    settings = ClearingScene(spread_cap=None if args.spread_cap == "off" else args.spread_cap).controller()
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "records.jsonl"
     done = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
@@ -79,7 +88,7 @@ def main() -> None:
         t = time.time()
         video = args.out / "video.mp4" if seed == args.video_seed else None
         record = run_clearing(seed, settings=settings, sensor=SensorSettings.realistic(seed), video=video)
-        record["wall_s"] = round(time.time() - t, 1)
+        record["wall_s"], record["spread_cap"] = round(time.time() - t, 1), settings.mppi.spread_cap
         done.append(record)
         with path.open("a") as f:
             f.write(json.dumps(record, default=float) + "\n")
@@ -88,6 +97,8 @@ def main() -> None:
         error = f" {record['error']}" if record["error"] else ""
         print(f"seed {seed}: {'cleared' if record['success'] else 'not cleared'} "
               f"(plate {record['plate_time_s']} s, {record['wall_s']} s wall){error}", flush=True)
+    with atomic_path(args.out / "table.md") as tmp:      # a finished folder: its table again
+        tmp.write_text(table(done))
     print(table(done))
 
 
