@@ -1,16 +1,16 @@
 """How near a disc MPPI's plan comes when its rollouts are integrated finer than the planner integrates them
 (``MPPISettings.check_substeps``, docs/controller.md#the-temperature-beside-obstacles).
 
-    python benchmarks/update_check.py [--iterations 10]
+    python benchmarks/update_check.py [--iterations 100]
 
 The state is the margin test's (``tests/test_cost.py::test_from_inside_the_margin_the_plan_never_comes_nearer``):
 the 200 × 120 mm box 4 mm from a 5-cm disc, inside the 1-cm margin, the pusher behind it, the goal beyond the
-disc. The planner iterates ``--iterations`` times from that state (λ_true known, no stall watch); the plan it
-ends with is then rolled out with 1, 2, 4 and 10 Euler steps per slot, and the table gives the least clearance
-(mm) of its slot-end states in each. The planner's own rollouts take one step per slot. Rows: the median over
-every sample (the default), and the median over the samples that paid no penalty (``spread_cap`` 1e6) with its
-update checked in 1 step per slot (in the planner's own model: it catches an average that crosses what no
-sample crossed, not the model's error) and in 4.
+disc. The planner iterates ``--iterations`` times from that state (λ_true known, no stall watch; the margin test
+iterates ten times); the plan it ends with is then rolled out with 1, 2, 4 and 10 Euler steps per slot, and the
+table gives the least clearance (mm) of its slot-end states in each. The planner's own rollouts take one step per
+slot. Rows: the median over every sample (the default), and the median over the samples that paid no penalty
+(``spread_cap`` 1e6) with its update checked in 1 step per slot (in the planner's own model: it catches an
+average that crosses what no sample crossed, not the model's error) and in 4.
 """
 
 from __future__ import annotations
@@ -46,7 +46,8 @@ def least_clearance(contour: Contour, scene: Scene, x: jnp.ndarray, sequence: jn
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--iterations", type=int, default=10, help="MPPI iterations from the state")
+    parser.add_argument("--iterations", type=int, default=100,
+                        help="MPPI iterations from the state (default 100: 4 s of replanning)")
     args = parser.parse_args()
     shape = Shape.rectangle()
     contour = Contour.of(shape)

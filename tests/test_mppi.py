@@ -95,7 +95,7 @@ def test_step_durations_follow_the_paper() -> None:
 
 @pytest.mark.parametrize("bad", [dict(num_samples=0), dict(temperature=0.0), dict(noise_sigma=-1.0),
                                  dict(refine_fraction=1.5), dict(control_cost=-1.0), dict(update="mean"),
-                                 dict(spread_cap=0.0)])
+                                 dict(spread_cap=0.0), dict(check_substeps=0), dict(check_substeps=2.5)])
 def test_bad_settings(bad: dict) -> None:
     with pytest.raises(ValueError, match=next(iter(bad))):
         MPPISettings(**bad)
