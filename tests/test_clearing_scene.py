@@ -101,6 +101,8 @@ def test_beside_the_tables_corner_the_planner_finishes_the_push() -> None:
     settings = scene.controller()
     assert settings.mppi.spread_cap == 1e6
     assert ClearingScene(spread_cap=None).controller() == ControllerSettings()
+    with pytest.raises(ValueError, match="spread_cap"):
+        ClearingScene(spread_cap=-1.0)
     controller = PushingController(problem, params=params, settings=settings, seed=0)
     trial = run_loop(ModelPlant(shape, params), controller, problem, plate, fingers, max_steps=25)
     assert trial.success

@@ -82,6 +82,8 @@ class ClearingScene:
         for name in ("edge_m", "plate_radius", "plate_thickness", "plate_mass", "finger_radius", "overhang_m",
                      "lift_m"):
             check_positive(name, getattr(self, name))
+        if self.spread_cap is not None:
+            check_positive("spread_cap", self.spread_cap, "or None")
 
     def controller(self) -> ControllerSettings:
         """The push's planner: the defaults with this scene's ``spread_cap``."""
