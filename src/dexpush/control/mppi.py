@@ -264,9 +264,9 @@ def mppi_iteration(key: jax.Array, U: jnp.ndarray, x0: jnp.ndarray, params: Any,
         def rollout_step(carry: tuple[Any, jnp.ndarray], inp: tuple[jnp.ndarray, ...]):
             x, total = carry
             v, dt, scale = inp
-            for _ in range(substeps):
-                x = dynamics(x, v * scale, dt if substeps == 1 else dt / substeps, params) if rate_independent \
-                    else dynamics(x, v, dt * scale if substeps == 1 else dt * scale / substeps, params)
+            for _ in range(substeps):      # (x / 1 is x exactly: one step per slot is the plain rollout)
+                x = (dynamics(x, v * scale, dt / substeps, params) if rate_independent
+                     else dynamics(x, v, dt * scale / substeps, params))
             effort = settings.control_cost * (dt * scale) * jnp.sum(v * v, -1)
             return (x, total + running_cost(x, context) + effort), None
 
