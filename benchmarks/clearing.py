@@ -2,9 +2,9 @@
 and the block picked into the bin, the plate pushed with the closed fingers until it overhangs the table's edge,
 grasped by its rim, lifted 5 cm and dropped into the bin (docs/goal_regions.md#the-demonstration-on-the-franka).
 
-    python benchmarks/clearing.py --out docs/results/clearing [--seeds 0-29] [--spread-cap off]
+    python benchmarks/clearing.py --out docs/results/clearing [--seeds 0-29] [planner flags of `dexpush bench`]
 
-MPPI with the UKF from λ_pred = [15, 0, 0] (unknown λ) and the scene's spread cap, the noise-model camera
+MPPI with the UKF from λ_pred = [15, 0, 0] (unknown λ) and the default planner, the noise-model camera
 (15 Hz, 1 mm / 0.5°, 60 ms, 5 % drops) during the push. Each finished seed is appended to ``records.jsonl`` at
 once, so a stopped run resumes where it stopped; ``table.md`` is rewritten after each (and by a run with nothing
 left to do). Needs ``pip install 'dexpush[franka]'``; run it alone (the simulator keeps to the wall clock) and
@@ -21,9 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from dexpush.cli.arguments import positive_or_off, seed_list
+from dexpush.cli.arguments import seed_list
+from dexpush.cli.config import default_config
+from dexpush.cli.flags import add_planner_flags, planner_overrides
 from dexpush.common.files import atomic_path
-from dexpush.experiments.clearing import ClearingScene, run_clearing
+from dexpush.experiments.clearing import run_clearing
 from dexpush.world.sensing import SensorSettings
 
 
@@ -72,12 +74,9 @@ def main() -> None:
     p.add_argument("--out", required=True, type=Path)
     p.add_argument("--seeds", type=seed_list, default=seed_list("0-29"), help="e.g. 0-29 or 0,3,7 (default 0-29)")
     p.add_argument("--video-seed", type=int, default=None, help="film this seed (video.gif or .mp4 in --out)")
-    p.add_argument("--spread-cap", type=positive_or_off("a cost"), default=ClearingScene().spread_cap, metavar="C|off",
-                   help="MPPI's median of λ over the samples within C of the best, or over all of them (off) "
-                        "(MPPISettings.spread_cap; docs/controller.md#the-temperature-beside-obstacles; default: "
-                        "the scene's, %(default)g)")
+    add_planner_flags(p)      # --spread-cap C|off, ...: the planner's defaults otherwise
     args = p.parse_args()
-    settings = ClearingScene(spread_cap=None if args.spread_cap == "off" else args.spread_cap).controller()
+    settings = default_config(planner_overrides(args)[0]).controller
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "records.jsonl"
     done = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []

@@ -3,7 +3,8 @@ to goal, tip tracking, limit checks and real-time factor per task and shape (doc
 
     python benchmarks/robot_sim.py --out docs/results/robot [--tasks I,II,III,IV] [--shapes rect]
                                    [--seeds 0-29] [--max-steps 1500]
-                                   [--camera rendered [--camera-setup two]] [--spread-cap 1e6]
+                                   [--camera rendered [--camera-setup two]]
+                                   [planner flags of `dexpush bench`: --spread-cap C|off, --guidance-turn M|off, ...]
 
 MPPI with the UKF from λ_pred = [15, 0, 0] (unknown λ), the noise-model camera (15 Hz, 1 mm / 0.5°,
 60 ms, 5 % drops) on the robot plant, the planner behind the frame guard and the safety filter, the
@@ -25,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from dexpush.cli.arguments import positive_or_off
+from dexpush.cli.config import default_config
+from dexpush.cli.flags import add_planner_flags, planner_overrides
 from dexpush.common.files import atomic_path
-from dexpush.control.controller import ControllerSettings
 from dexpush.experiments.registry import make_shape
 from dexpush.experiments.robot_trial import RobotSettings, run_robot_episode
 from dexpush.experiments.scenarios import MAX_STEPS, get_task
@@ -85,13 +86,9 @@ def main() -> None:
                     help="the rendered cameras' set-up (docs/perception.md#the-rendered-camera; default oblique)")
     ap.add_argument("--max-steps", type=int, default=MAX_STEPS,
                     help=f"control steps before giving up (default {MAX_STEPS}, the benchmark's N_max)")
-    ap.add_argument("--spread-cap", type=positive_or_off("a cost"), default="off", metavar="C|off",
-                    help="MPPI's median of λ over the samples within C of the best, or over all of them (off, the "
-                         "default) (MPPISettings.spread_cap; docs/controller.md#the-temperature-beside-obstacles)")
+    add_planner_flags(ap)     # --spread-cap C|off, --guidance-turn M|off, ...: the planner's defaults otherwise
     args = ap.parse_args()
-    base = ControllerSettings()
-    settings = dataclasses.replace(base, mppi=dataclasses.replace(
-        base.mppi, spread_cap=None if args.spread_cap == "off" else args.spread_cap))
+    settings = default_config(planner_overrides(args)[0]).controller
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     path = out / "records.jsonl"
@@ -110,7 +107,7 @@ def main() -> None:
                                                     sensor=sensor, robot=RobotSettings(), settings=settings,
                                                     max_steps=args.max_steps)
                 rec = {**dataclasses.asdict(episode.record), "shape": shape_name, "robot": report,
-                       "spread_cap": settings.mppi.spread_cap,
+                       "spread_cap": settings.mppi.spread_cap, "guidance_turn_m": settings.weights.guidance_turn_m,
                        "wall_s": round(time.perf_counter() - t0, 1)}
                 with open(path, "a") as fh:
                     fh.write(json.dumps(rec) + "\n")

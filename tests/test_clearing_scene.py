@@ -84,7 +84,7 @@ def test_beside_the_tables_corner_the_planner_finishes_the_push() -> None:
     temperature's spread taken over the samples that paid none (``MPPISettings.spread_cap``) the planner walks
     behind the plate and pushes it into the region within a second on the model plant; with the spread over
     every sample it hovered there (benchmarks/temperature_spread.py: 5 of 10 loops within 16 s, in 244–325
-    steps). The scene's planner is the default's with that cap."""
+    steps). The default planner has that cap."""
     from dexpush.control.controller import ControllerSettings, PushingController
     from dexpush.experiments.robot_trial import robot_problem
     from dexpush.experiments.runner import run_loop
@@ -98,11 +98,8 @@ def test_beside_the_tables_corner_the_planner_finishes_the_push() -> None:
                                                  pose, pusher))
     plate, fingers, params = np.array([0.386, -0.1827, -2.1747]), np.array([0.2642, -0.0959]), (17.4, 0.0, 0.0)
     assert not problem.success(plate)
-    settings = scene.controller()
+    settings = ControllerSettings()
     assert settings.mppi.spread_cap == 1e6
-    assert ClearingScene(spread_cap=None).controller() == ControllerSettings()
-    with pytest.raises(ValueError, match="spread_cap"):
-        ClearingScene(spread_cap=-1.0)
     controller = PushingController(problem, params=params, settings=settings, seed=0)
     trial = run_loop(ModelPlant(shape, params), controller, problem, plate, fingers, max_steps=25)
     assert trial.success

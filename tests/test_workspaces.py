@@ -151,15 +151,39 @@ def test_the_object_and_pusher_workspaces_bound_each_alone() -> None:
 
 
 # ---------------------------------------------------------------- guidance
-def test_cost_to_go_is_the_straight_distance_in_the_open_within_the_grid_stretch() -> None:
-    goal = np.zeros(3)
+@pytest.mark.parametrize("turn_m", [None, 0.1])
+def test_cost_to_go_is_the_straight_distance_in_the_open_within_the_grid_stretch(turn_m: float | None) -> None:
+    """In the open no heading needs a turn: V is the straight distance in every heading."""
+    goal = np.array([0.0, 0.0, 0.7])
     field = cost_to_go(RECT.polygons, RECT.bounding_radius, goal, np.zeros((0, 3)), (),
-                       np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]), 0.0)
+                       np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]), 0.0, turn_m=turn_m)
+    assert field.headings == (1 if turn_m is None else 16)
     a = np.linspace(0, 2 * np.pi, 73)
     p = 0.3 * np.c_[np.cos(a), np.sin(a)]
-    ratio = field.at(p) / 0.3
-    assert np.all(ratio >= 1 - 1e-6) and np.all(ratio <= 1 + GRID_STRETCH)
-    assert field.at(goal[:2]) == pytest.approx(0.0, abs=1e-9)
+    for heading in np.linspace(-np.pi, np.pi, 11):
+        ratio = field.at(p, heading) / 0.3
+        assert np.all(ratio >= 1 - 1e-6) and np.all(ratio <= 1 + GRID_STRETCH)
+        assert field.at(goal[:2], heading) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_cost_to_go_with_headings_charges_the_turn_a_slot_needs() -> None:
+    """A slot in a wall that the box passes only lengthwise: from the open side, V in the crossing heading
+    exceeds V in the passing one by the turn (π/2 at ``turn_m`` per radian), and the one-layer field, free
+    where the box fits in some heading, is the passing heading's V for both."""
+    goal = np.array([0.3, 0.0, 0.0])
+    slot = (wall(0.0, -0.6, 0.0, -0.09, 0.02), wall(0.0, 0.09, 0.0, 0.6, 0.02))   # 0.18 m: 0.12 fits, 0.2 not
+    args = (RECT.polygons, RECT.bounding_radius, goal, np.zeros((0, 3)), slot,
+            np.array([[-0.6, -0.6], [0.6, -0.6], [0.6, 0.6], [-0.6, 0.6]]), 0.01)
+    turned, blind = cost_to_go(*args, turn_m=0.1), cost_to_go(*args)
+    start = np.array([-0.3, 0.0])
+    passing, crossing = turned.at(start, 0.0), turned.at(start, np.pi / 2)
+    assert passing == pytest.approx(0.6, rel=GRID_STRETCH)
+    assert crossing - passing == pytest.approx(0.1 * np.pi / 2, abs=0.02)
+    assert blind.at(start, np.pi / 2) == pytest.approx(passing, abs=0.01)
+    # in the slot itself the passing headings fit and the crossing ones do not (the samples are a cell apart)
+    in_slot = tuple(np.round((np.zeros(2) - turned.lo) / turned.cell).astype(int))
+    assert turned.free[(0, *in_slot)] and turned.free[(8, *in_slot)]
+    assert not turned.free[(3, *in_slot)] and not turned.free[(4, *in_slot)] and not turned.free[(12, *in_slot)]
 
 
 def test_cost_to_go_leads_round_a_wall_and_not_through_it() -> None:
@@ -178,32 +202,51 @@ def test_cost_to_go_leads_round_a_wall_and_not_through_it() -> None:
     assert not closed.connects(start)
 
 
-def test_guided_goal_distance_keeps_the_detour_round_discs() -> None:
-    """With discs and a guide (Task IV), ℓ is the larger of the way along the cost-to-go and the way round
-    each disc at the footprint's reach: behind a disc it is the detour, in the open the straight line."""
+@pytest.mark.parametrize("turn_m", [None, 0.1])
+def test_guided_goal_distance_round_discs(turn_m: float | None) -> None:
+    """With discs and a guide (Task IV): a field by heading is followed alone; a one-layer field, which lets
+    the footprint turn to fit anywhere, with the way round each disc at the footprint's reach beside it (ℓ the
+    larger of the two: behind a disc the detour). Never shorter than the straight line."""
     import jax.numpy as jnp
 
     from dexpush.problem.cost import detour_length_sq, goal_distance_sq, guided_length_sq
 
     tee = Shape.tee()
-    problem = TASKS["IV"].problem(tee)
+    problem = TASKS["IV"].problem(tee, CostWeights(guidance_turn_m=turn_m))
     scene = problem.scene
-    assert problem.guide is not None and scene.detour_radius.shape[0] == 3
+    assert problem.guide is not None and problem.guide.headings == (1 if turn_m is None else 16)
+    assert scene.detour_radius.shape[0] == 3
     rng = np.random.default_rng(3)
     p = rng.uniform([-0.15, -0.25], [0.45, 0.15], (400, 2))
-    x = jnp.asarray(np.c_[p, np.full(len(p), problem.goal[2]), np.zeros((len(p), 2))], jnp.float32)
+    x = jnp.asarray(np.c_[p, rng.uniform(-np.pi, np.pi, len(p)), np.zeros((len(p), 2))], jnp.float32)
     got = np.asarray(goal_distance_sq(x, scene, 0.0))
-    guided = np.asarray(guided_length_sq(x[:, 0], x[:, 1], scene))
+    guided = np.asarray(guided_length_sq(x[:, 0], x[:, 1], x[:, 2], scene))
     detour = np.asarray(detour_length_sq(x[:, 0], x[:, 1], scene))
-    np.testing.assert_allclose(got, np.maximum(guided, detour), rtol=1e-6)
-    assert np.mean(detour > guided * 1.05) > 0.1          # the discs' detour matters somewhere
+    np.testing.assert_allclose(got, guided if turn_m else np.maximum(guided, detour), rtol=1e-6)
+    if turn_m is None:
+        assert np.mean(detour > guided * 1.05) > 0.1          # the discs' detour matters somewhere
     straight = np.sum((p - np.asarray(problem.goal[:2])) ** 2, -1)
     assert np.all(got >= straight * (1 - 1e-5))
-    # an object with bounds of its own (a robot's reach) follows the cost-to-go alone
-    band = ((-0.2, -0.3), (0.5, -0.3), (0.5, 0.2), (-0.2, 0.2))
+    # an object with bounds of its own (a robot's reach) follows the cost-to-go alone, which keeps its footprint
+    # inside them
+    band = ((0.0, -0.3), (0.5, -0.3), (0.5, 0.2), (0.0, 0.2))
     bounded = Problem(tee, problem.goal, problem.obstacles, problem.weights, polygons=problem.polygons,
-                      workspace=problem.workspace, object_workspace=band).scene
-    np.testing.assert_allclose(np.asarray(goal_distance_sq(x, bounded, 0.0)), guided, rtol=1e-6)
+                      workspace=problem.workspace, object_workspace=band)
+    np.testing.assert_allclose(np.asarray(goal_distance_sq(x, bounded.scene, 0.0)),
+                               np.asarray(guided_length_sq(x[:, 0], x[:, 1], x[:, 2], bounded.scene)), rtol=1e-6)
+    for guide, fits_outside in ((bounded.guide, False), (problem.guide, True)):
+        nodes = guide.lo + guide.cell * np.stack(np.meshgrid(*map(np.arange, guide.free.shape[1:]), indexing="ij"),
+                                                 -1)
+        edge = (nodes[..., 0] < 0.03) & (nodes[..., 0] > -0.03)       # where the footprint would cross x = 0
+        assert edge.any() and guide.free.any(0)[edge].any() == fits_outside
+
+
+def test_discs_alone_keep_the_detour() -> None:
+    """Task III (one disc, no bounds) has no cost-to-go of either kind: the detour round the disc alone."""
+    tee = Shape.tee()
+    for w in (CostWeights(), CostWeights(guidance_turn_m=None)):
+        assert TASKS["III"].problem(tee, w).guide is None
+        assert TASKS["III"].problem(tee, w).scene.detour_radius.shape[0] == 1
 
 
 # ---------------------------------------------------------------- tasks

@@ -178,19 +178,21 @@ def plot_layouts(shape: Shape, trials: list[tuple[object, np.ndarray, bool]], ti
 
 def plot_guidance(shape: Shape, problem: object, states: np.ndarray | None = None, title: str = "",
                   path: str | os.PathLike | None = None) -> plt.Figure:
-    """The cost-to-go V of ``problem.guide`` as a filled contour (positions where the footprint fits in no
-    heading hatched out), the obstacles, the goal and, given ``states``, the object's and the pusher's
-    paths."""
+    """The cost-to-go V of ``problem.guide`` as a filled contour (positions where the footprint does not fit
+    hatched out; a field with heading layers is drawn in the layer nearest the start's heading, or 0 without
+    ``states``), the obstacles, the goal and, given ``states``, the object's and the pusher's paths."""
     guide = problem.guide
     fig, ax = plt.subplots(figsize=(7, 5.5))
     if guide is not None:
-        nx, ny = guide.values.shape
+        heading = 0.0 if states is None else float(np.asarray(states)[0, 2])
+        k = int(np.round(heading * guide.headings / (2 * np.pi))) % guide.headings
+        _, nx, ny = guide.values.shape
         xs = guide.lo[0] + guide.cell * np.arange(nx)
         ys = guide.lo[1] + guide.cell * np.arange(ny)
-        v = np.where(guide.reached, guide.values, np.nan)
+        v = np.where(guide.reached[k], guide.values[k], np.nan)
         field = ax.contourf(xs, ys, v.T, levels=24, cmap="viridis", alpha=0.85)
         fig.colorbar(field, ax=ax, label="cost-to-go V (m)")
-        ax.contourf(xs, ys, (~guide.free).T.astype(float), levels=[0.5, 1.5], colors="none", hatches=["///"])
+        ax.contourf(xs, ys, (~guide.free[k]).T.astype(float), levels=[0.5, 1.5], colors="none", hatches=["///"])
     draw_obstacles(ax, problem.obstacles, problem.polygons, problem.workspace)
     _draw_pose(ax, shape, np.asarray(problem.goal), fill=False, ec="#d62728", lw=1.5, ls="--", label="goal")
     if states is not None:

@@ -30,6 +30,7 @@ __all__ = ["add_camera_flags", "add_planner_flags", "camera_overrides", "planner
 _PLANNER = {
     "--detour": ("detour", ("weights", "detour")),
     "--guidance": ("guidance", ("weights", "guidance")),
+    "--guidance-turn": ("guidance_turn", ("weights", "guidance_turn_m")),
     "--stall-after": ("stall_after", ("stall", "after_s")),
     "--temperature": ("temperature", ("mppi", "temperature")),
     "--spread-cap": ("spread_cap", ("mppi", "spread_cap")),
@@ -55,6 +56,10 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
                    help="past obstacles and walls, the terminal cost and the stall watch follow the cost-to-go "
                         "round them (default), or the straight goal distance (--no-guidance; weights.guidance; "
                         "docs/workspaces.md#global-guidance)")
+    g.add_argument("--guidance-turn", type=positive_or_off("a length per radian"), default=None, metavar="M|off",
+                   help="the cost-to-go has a layer per heading, a turn costing M metres per radian, or one layer "
+                        "where the footprint may turn to fit anywhere (off) (weights.guidance_turn_m; "
+                        "docs/workspaces.md#global-guidance; default: 0.1)")
     g.add_argument("--stall-after", type=positive_or_off("a time in seconds"), default=None, metavar="SECONDS|off",
                    help="restart the planner after this long without progress and contact, or never (off) "
                         "(stall.after_s; docs/controller.md#stalls; default: 4)")
@@ -66,8 +71,9 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
                         "(mppi.temperature; docs/controller.md; default: 0.02)")
     g.add_argument("--spread-cap", type=positive_or_off("a cost"), default=None, metavar="C|off",
                    help="take the median of λ over the samples within C of the best (those that paid no "
-                        "obstacle penalty, e.g. 1e6), or over all of them (off) (mppi.spread_cap; "
-                        "docs/controller.md#the-temperature-beside-obstacles; default: off)")
+                        "obstacle penalty), checking the update in finer rollouts, or over all of them (off) "
+                        "(mppi.spread_cap; docs/controller.md#the-temperature-beside-obstacles; default: 1e6 "
+                        "where there are obstacles)")
     g.add_argument("--endgame-temperature", type=positive_or_off("a temperature"), default=None,
                    metavar="TAU|off", help="τ within 4 cm of the goal, or the same τ everywhere (off) "
                    "(endgame.temperature; docs/controller.md#the-endgame-temperature; default: 0.005)")

@@ -108,8 +108,9 @@ class MPPISettings:
     temperature: float = 0.02     #: τ, relative temperature λ = τ·(median S − min S)
     #: the median of λ over the samples that cost at most min S + this (e.g. 1e6: a sample past it paid an
     #: obstacle's penalty, C_margin = 1e9 per margin depth, C_pen = 1e13 per touch), the update checked (module
-    #: docstring); None (default): over all of them (docs/controller.md#the-temperature-beside-obstacles)
-    spread_cap: float | None = None
+    #: docstring); None: over all of them. The controller drops it where there is nothing to keep clear of
+    #: (:func:`dexpush.control.policy.plan_step`). See docs/controller.md#the-temperature-beside-obstacles.
+    spread_cap: float | None = 1e6
     #: with ``spread_cap``: the Euler steps per slot of the rollouts that check the update
     check_substeps: int = 4
     control_cost: float = 1.0     #: q_u of the effort term q_u·Σ Δt_k‖v_k‖²

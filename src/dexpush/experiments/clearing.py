@@ -17,7 +17,7 @@ came from a 6D pose tracker (SAM2 with FoundationPose); the push sees only the c
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -73,22 +73,11 @@ class ClearingScene:
     bin: Bin = field(default_factory=lambda: Bin((0.75, 0.55)))
     lift_m: float = 0.05                  #: lift the grasped plate by this much (m)
     pick: PickSettings = field(default_factory=PickSettings)
-    #: MPPI's λ from the samples within this of the best (``MPPISettings.spread_cap``): beside the table's edges
-    #: and the arm's reach most samples pay a penalty (docs/controller.md#the-temperature-beside-obstacles); None:
-    #: the default planner's median over all of them
-    spread_cap: float | None = 1e6
 
     def __post_init__(self) -> None:
         for name in ("edge_m", "plate_radius", "plate_thickness", "plate_mass", "finger_radius", "overhang_m",
                      "lift_m"):
             check_positive(name, getattr(self, name))
-        if self.spread_cap is not None:
-            check_positive("spread_cap", self.spread_cap, "or None")
-
-    def controller(self) -> ControllerSettings:
-        """The push's planner: the defaults with this scene's ``spread_cap``."""
-        base = ControllerSettings()
-        return replace(base, mppi=replace(base.mppi, spread_cap=self.spread_cap))
 
     def shape(self) -> Shape:
         return Shape.ellipse(self.plate_radius, self.plate_radius, pusher_radius=self.finger_radius, name="plate")
@@ -125,7 +114,7 @@ def run_clearing(seed: int, scene: ClearingScene | None = None, *, settings: Con
                  sensor: Any = None, params: str = "unknown", video: str | Path | None = None,
                  video_fps: float = 10.0, progress: bool = False, log: Any = None) -> dict:
     """Clear the table once (trial ``seed``: the plate's start); returns the record. ``settings``: the push's
-    planner (default: ``scene.controller()``).
+    planner (default: ``ControllerSettings()``).
 
     The record: ``props_in_bin`` (by name), ``overhang`` (the push ended in the region), ``dropped`` (the plate
     fell during the push), ``grasped`` and ``lifted`` (it rose with the hand by ``LIFT_KEPT`` of the lift and
@@ -167,7 +156,7 @@ def run_clearing(seed: int, scene: ClearingScene | None = None, *, settings: Con
             picker.close()
             t_push = world.time
             episode, report = run_robot_episode(task, shape, params=params, seed=seed,
-                                                settings=settings or scene.controller(),
+                                                settings=settings or ControllerSettings(),
                                                 sensor=sensor, robot=RobotSettings(place_task=False, driver=frames),
                                                 world=world, driver=driver, progress=progress)
             out["push"] = dataclasses.asdict(episode.record)

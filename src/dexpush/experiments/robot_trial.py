@@ -289,7 +289,7 @@ def task_centre(problem: Problem, robot: RobotSettings, pose: object,
 def robot_problem(problem: Problem, area: tuple, reach: tuple) -> Problem:
     """``problem`` with the object within ``area`` and the pusher within ``reach`` (:func:`robot_area`), both
     within the task's own workspace where it has one. Neither bound builds a cost-to-go: a task keeps the
-    guidance it has (docs/workspaces.md#global-guidance)."""
+    guidance it has, whose way then stays within ``area`` (docs/workspaces.md#global-guidance)."""
     return replace(problem, object_workspace=area, pusher_workspace=reach)
 
 

@@ -84,27 +84,39 @@ def detour_length_sq(x: jnp.ndarray, y: jnp.ndarray, scene: Scene) -> jnp.ndarra
 
 
 
-def guided_length_sq(x: jnp.ndarray, y: jnp.ndarray, scene: Scene) -> jnp.ndarray:
-    """ℓ², ℓ = max(‖p − g‖, (V(p) − h)/(1 + κ)): the goal distance along the cost-to-go V of
+def guided_length_sq(x: jnp.ndarray, y: jnp.ndarray, th: jnp.ndarray, scene: Scene) -> jnp.ndarray:
+    """ℓ², ℓ = max(‖p − g‖, (V(p, θ) − h)/(1 + κ)): the goal distance along the cost-to-go V of
     :mod:`dexpush.problem.guidance` (``scene.guide``; h its grid spacing, κ = ``GRID_STRETCH``), which
     is the straight-line distance wherever the straight way is free and the way round otherwise.
 
-    V is bilinear between the grid's nodes and, beyond the grid, V at its nearest edge point (there the
-    straight distance, which grows, takes over). Four gathers per state: the same work for any number of
-    obstacles.
+    V is bilinear between the grid's nodes, linear between its heading layers θ_k = 2πk/K where it has
+    K > 1 (with one it holds for every heading), and, beyond the grid, V at its nearest edge point (there
+    the straight distance, which grows, takes over). Four gathers per state and layer read: the same work
+    for any number of obstacles.
     """
     v = scene.guide
-    n_x, n_y = v.shape
+    n_k, n_x, n_y = v.shape
     h = scene.guide_cell
     u = jnp.clip((x - scene.guide_lo[0]) / h, 0.0, n_x - 1.0)
     w = jnp.clip((y - scene.guide_lo[1]) / h, 0.0, n_y - 1.0)
     i = jnp.minimum(jnp.floor(u), n_x - 2.0)
     j = jnp.minimum(jnp.floor(w), n_y - 2.0)
     fu, fw = u - i, w - j
-    k = i.astype(jnp.int32) * n_y + j.astype(jnp.int32)
     flat = v.reshape(-1)
-    val = ((1 - fu) * ((1 - fw) * flat[k] + fw * flat[k + 1])
-           + fu * ((1 - fw) * flat[k + n_y] + fw * flat[k + n_y + 1]))
+
+    def layer(k: jnp.ndarray | int) -> jnp.ndarray:
+        at = k * (n_x * n_y) + i.astype(jnp.int32) * n_y + j.astype(jnp.int32)
+        return ((1 - fu) * ((1 - fw) * flat[at] + fw * flat[at + 1])
+                + fu * ((1 - fw) * flat[at + n_y] + fw * flat[at + n_y + 1]))
+
+    if n_k == 1:
+        val = layer(0)
+    else:
+        t = jnp.mod(th * (n_k / (2 * jnp.pi)), float(n_k))
+        k0 = jnp.minimum(jnp.floor(t), n_k - 1.0)
+        ft = t - k0
+        k0 = k0.astype(jnp.int32)
+        val = (1 - ft) * layer(k0) + ft * layer(jnp.where(k0 + 1 == n_k, 0, k0 + 1))
     dx, dy = x - scene.goal[0], y - scene.goal[1]
     ell = jnp.maximum((val - h) / (1.0 + GRID_STRETCH), 0.0)
     return jnp.maximum(dx * dx + dy * dy, ell * ell)
@@ -132,11 +144,13 @@ def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: 
         return length_sq + scene.heading_weight * c * (1.0 - fastmath.cos(th - scene.goal[2]))
     has_detour = scene.detour_radius is not None and scene.detour_radius.shape[0] > 0
     if guided and scene.guide is not None and scene.guide.shape[0] > 0:
-        length_sq = guided_length_sq(xb, yb, scene)
-        # round discs the detour keeps the object a footprint's reach away, so that it passes in the heading
-        # it is pushed in; not where the object has bounds of its own (a robot's reach), which the detour's
-        # circles ignore (docs/workspaces.md#discs-keep-their-detour-2026-12-04)
-        if has_detour and (scene.object_bounds is None or scene.object_bounds.shape[0] == 0):
+        length_sq = guided_length_sq(xb, yb, th, scene)
+        # with one layer V lets the footprint turn to fit anywhere: round discs the detour keeps the object a
+        # footprint's reach away, so that it passes in the heading it is pushed in; not where the object has
+        # bounds of its own (a robot's reach), which the detour's circles ignore; a V with heading layers knows
+        # the heading (docs/workspaces.md#discs-keep-their-detour-2026-12-04)
+        if has_detour and scene.guide.shape[0] == 1 and (scene.object_bounds is None
+                                                          or scene.object_bounds.shape[0] == 0):
             length_sq = jnp.maximum(length_sq, detour_length_sq(xb, yb, scene))
     elif has_detour:
         length_sq = detour_length_sq(xb, yb, scene)

@@ -14,7 +14,14 @@ through the positions where the footprint fits in some heading, computed once pe
    most :data:`GRID_STRETCH` longer than straight lines); elsewhere the nearest reachable node's V plus
    the distance to it, so that V is finite everywhere and points back into free space.
 
-The cost (:func:`dexpush.problem.cost.guided_length_sq`) uses ℓ = max(‖p − g‖, (V(p) − h)/(1 + κ)), κ =
+With a turn length ρ (``turn_m``, m per radian) V has one layer per heading θ_k = 2πk/K, K = :data:`HEADINGS`:
+node (k, i, j) is free where the footprint fits in θ_k, the grid moves stay in their layer, a turn to a
+neighbouring layer at a node free in both costs ρ·2π/K, and every heading at the goal's node is a goal (the
+cost's own heading term charges the goal heading). V(p, θ) is then the length of the way from p that the
+footprint can take in the heading it has, turning where it fits; without ρ it is the way for a footprint
+that turns to fit anywhere at no cost.
+
+The cost (:func:`dexpush.problem.cost.guided_length_sq`) uses ℓ = max(‖p − g‖, (V(p, θ) − h)/(1 + κ)), κ =
 :data:`GRID_STRETCH`: ℓ is the straight-line distance wherever the way to the goal is straight and free
 (so the cost near the goal, and in the open, is eq. (9)'s), and the path round otherwise.
 """
@@ -45,9 +52,10 @@ _MOVES = np.array([(1, 0), (0, 1), (-1, 0), (0, -1), (1, 1), (-1, 1), (-1, -1), 
 
 @dataclass(frozen=True, eq=False)
 class CostToGo:
-    """V on a grid: ``values[i, j]`` at the node ``lo + (i, j)·cell`` (m); ``free`` marks the nodes where the
-    footprint fits, ``reached`` those of them connected to the goal; ``build_s`` is how long
-    :func:`cost_to_go` took."""
+    """V on a grid: ``values[k, i, j]`` (m) at the node ``lo + (i, j)·cell`` in heading layer k, θ_k = 2πk/K
+    (K = ``values.shape[0]``; with one layer V holds for every heading); ``free`` marks the nodes where the
+    footprint fits (in layer k's heading, or in some heading with one layer), ``reached`` those of them
+    connected to the goal; ``build_s`` is how long :func:`cost_to_go` took."""
 
     values: np.ndarray
     free: np.ndarray
@@ -55,6 +63,11 @@ class CostToGo:
     lo: np.ndarray
     cell: float
     build_s: float
+
+    @property
+    def headings(self) -> int:
+        """K, the number of heading layers (1: V does not depend on the heading)."""
+        return int(self.values.shape[0])
 
     def shifted(self, origin: np.ndarray) -> CostToGo:
         """The same field in a frame whose origin is at ``origin`` (x, y, ...) of this one."""
@@ -65,21 +78,31 @@ class CostToGo:
         """Whether the footprint fits at ``point`` (x, y) in some heading and a free path leads from there
         to the goal (at the nearest node)."""
         i = np.round((np.asarray(point, np.float64)[:2] - self.lo) / self.cell).astype(int)
-        return bool(np.all((i >= 0) & (i < self.reached.shape)) and self.reached[tuple(i)])
+        reached = self.reached.any(0)
+        return bool(np.all((i >= 0) & (i < reached.shape)) and reached[tuple(i)])
 
-    def at(self, points: np.ndarray) -> np.ndarray:
-        """V at points (..., 2) (bilinear between nodes; beyond the grid, plus the distance to it)."""
+    def at(self, points: np.ndarray, headings: np.ndarray | float = 0.0) -> np.ndarray:
+        """V at points (..., 2) in ``headings`` (rad; unused with one layer): bilinear between nodes, linear
+        between layers; beyond the grid, plus the distance to it."""
         p = np.asarray(points, np.float64)
-        n = np.array(self.values.shape) - 1
+        n = np.array(self.values.shape[1:]) - 1
         u = (p - self.lo) / self.cell
         uc = np.clip(u, 0, n)
         i = np.minimum(np.floor(uc).astype(int), n - 1)
         f = uc - i
         v = self.values
-        val = ((1 - f[..., 0]) * (1 - f[..., 1]) * v[i[..., 0], i[..., 1]]
-               + f[..., 0] * (1 - f[..., 1]) * v[i[..., 0] + 1, i[..., 1]]
-               + (1 - f[..., 0]) * f[..., 1] * v[i[..., 0], i[..., 1] + 1]
-               + f[..., 0] * f[..., 1] * v[i[..., 0] + 1, i[..., 1] + 1])
+        layers = ((1 - f[..., 0]) * (1 - f[..., 1]) * v[:, i[..., 0], i[..., 1]]
+                  + f[..., 0] * (1 - f[..., 1]) * v[:, i[..., 0] + 1, i[..., 1]]
+                  + (1 - f[..., 0]) * f[..., 1] * v[:, i[..., 0], i[..., 1] + 1]
+                  + f[..., 0] * f[..., 1] * v[:, i[..., 0] + 1, i[..., 1] + 1])
+        val = layers[0]
+        if self.headings > 1:
+            t = np.mod(np.broadcast_to(np.asarray(headings, np.float64), val.shape) / (2 * np.pi), 1.0) * self.headings
+            k0 = np.floor(t).astype(int) % self.headings
+            ft = t - np.floor(t)
+            pick = np.take_along_axis
+            val = ((1 - ft) * pick(layers, k0[None], 0)[0]
+                   + ft * pick(layers, ((k0 + 1) % self.headings)[None], 0)[0])
         return val + np.hypot(*np.moveaxis(u - uc, -1, 0)) * self.cell
 
 
@@ -100,24 +123,30 @@ def _footprint_samples(polygons: tuple[np.ndarray, ...], cell: float) -> np.ndar
 
 
 def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, discs: np.ndarray,
-               polygons: tuple[np.ndarray, ...], workspace: np.ndarray | None, margin: float,
-               cell: float = 0.02) -> CostToGo:
+               polygons: tuple[np.ndarray, ...], workspace: np.ndarray | tuple[np.ndarray, ...] | None,
+               margin: float, cell: float = 0.02, turn_m: float | None = None) -> CostToGo:
     """The cost-to-go of the module docstring for a footprint (its polygons in {B}, ``reach`` its largest
-    distance from the reference) pushed to ``goal`` past ``discs`` (M, 3), convex ``polygons`` and inside
-    the convex ``workspace`` corners (None: unbounded), keeping ``margin`` (m) clear, on a grid of ``cell``
-    (m). The grid spans the workspace, or the goal and the obstacles with room for the footprint round them."""
+    distance from the reference) pushed to ``goal`` (x, y, θ) past ``discs`` (M, 3), convex ``polygons`` and
+    inside the convex ``workspace`` corners, or inside each of a tuple of them (None: unbounded), keeping
+    ``margin`` (m) clear, on a grid of ``cell`` (m). The grid spans the workspace, or the goal and the
+    obstacles with room for the footprint round them. ``turn_m`` (m per radian) gives V one layer per
+    heading, a turn at a node costing ``turn_m`` per radian; None gives one layer, free where the footprint
+    fits in some heading."""
     t0 = time.perf_counter()
-    g = np.asarray(goal, np.float64)[:2]
-    if workspace is not None:
-        lo, hi = np.min(workspace, 0), np.max(workspace, 0)
+    if turn_m is not None and not (np.isfinite(turn_m) and turn_m > 0):
+        raise ValueError(f"turn_m must be positive (m per radian) or None, got {turn_m!r}")
+    g = np.asarray(goal, np.float64)
+    areas = () if workspace is None else (workspace,) if isinstance(workspace, np.ndarray) else tuple(workspace)
+    if areas:
+        lo, hi = np.max([np.min(a, 0) for a in areas], 0), np.min([np.max(a, 0) for a in areas], 0)
     else:
-        pts = [g[None], *(p for p in polygons)]
+        pts = [g[None, :2], *(p for p in polygons)]
         if len(discs):
             pts += [discs[:, :2] - discs[:, 2:3], discs[:, :2] + discs[:, 2:3]]
         pts = np.concatenate(pts)
         pad = 2 * reach + 0.1
         lo, hi = pts.min(0) - pad, pts.max(0) + pad
-    lo = g - np.ceil((g - lo) / cell - 1e-9) * cell           # the goal is a node
+    lo = g[:2] - np.ceil((g[:2] - lo) / cell - 1e-9) * cell           # the goal is a node
     shape = np.maximum(np.ceil((hi - lo) / cell - 1e-9).astype(int) + 1, 2)
     extra = int(np.ceil(reach / cell)) + 1                 # room for the footprint's samples beyond the grid
     ix = np.arange(-extra, shape[0] + extra) * cell + lo[0]
@@ -128,42 +157,52 @@ def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, di
         d = np.minimum(d, np.hypot(nodes[..., 0] - cx, nodes[..., 1] - cy) - r)
     for p in polygons:
         d = np.minimum(d, point_gap(nodes, p))
-    if workspace is not None:
-        d = np.minimum(d, -point_gap(nodes, workspace))
+    for a in areas:
+        d = np.minimum(d, -point_gap(nodes, np.asarray(a, np.float64)))
     clear = d > margin
     samples = _footprint_samples(footprint, cell)
-    free = np.zeros(tuple(shape), bool)
+    fits = np.ones((HEADINGS, *shape), bool)
     for k in range(HEADINGS):
         th = 2 * np.pi * k / HEADINGS
         c, s = np.cos(th), np.sin(th)
         offsets = np.unique(np.round(samples @ np.array([[c, s], [-s, c]]) / cell).astype(int), axis=0)
-        fits = np.ones(tuple(shape), bool)
         for di, dj in offsets:
-            fits &= clear[extra + di:extra + di + shape[0], extra + dj:extra + dj + shape[1]]
-        free |= fits
-    goal_node = tuple(np.round((g - lo) / cell).astype(int))
-    free[goal_node] = True
-    values, reached = _geodesic(free, goal_node, cell)
+            fits[k] &= clear[extra + di:extra + di + shape[0], extra + dj:extra + dj + shape[1]]
+    goal_node = tuple(np.round((g[:2] - lo) / cell).astype(int))
+    if turn_m is None:
+        free = fits.any(0, keepdims=True)
+        free[(0, *goal_node)] = True
+        sources = [(0, *goal_node)]
+        turn = 0.0
+    else:
+        free = fits
+        free[(int(np.round(g[2] * HEADINGS / (2 * np.pi))) % HEADINGS, *goal_node)] = True
+        sources = [(k, *goal_node) for k in range(HEADINGS) if free[(k, *goal_node)]]
+        turn = turn_m * 2 * np.pi / HEADINGS
+    values, reached = _geodesic(free, sources, cell, turn)
     return CostToGo(values.astype(np.float32), free, reached, lo.astype(np.float64), float(cell),
                     time.perf_counter() - t0)
 
 
 def _window(free: np.ndarray, di: int, dj: int, oi: int = 0, oj: int = 0) -> np.ndarray:
-    """``free`` at the nodes (i + oi, j + oj) for every start node (i, j) of a move (di, dj) that stays on
-    the grid."""
-    nx, ny = free.shape
+    """``free`` (..., nx, ny) at the nodes (i + oi, j + oj) for every start node (i, j) of a move (di, dj) that
+    stays on the grid."""
+    nx, ny = free.shape[-2:]
     i0, j0 = max(0, -di), max(0, -dj)
-    return free[i0 + oi:i0 + oi + nx - abs(di), j0 + oj:j0 + oj + ny - abs(dj)]
+    return free[..., i0 + oi:i0 + oi + nx - abs(di), j0 + oj:j0 + oj + ny - abs(dj)]
 
 
-def _geodesic(free: np.ndarray, source: tuple[int, int], cell: float) -> tuple[np.ndarray, np.ndarray]:
-    """Path lengths (m) from ``source`` over the free nodes of a 16-neighbour grid (a move's end nodes
-    and the nodes it passes between must be free: no cutting a corner); the other nodes get the
-    nearest reachable node's length plus the straight distance to it. Also the reached nodes."""
-    nx, ny = free.shape
-    index = np.arange(nx * ny).reshape(nx, ny)
+def _geodesic(free: np.ndarray, sources: list[tuple[int, int, int]], cell: float,
+              turn: float) -> tuple[np.ndarray, np.ndarray]:
+    """Path lengths (m) to the nearest of ``sources`` over the free nodes (K, nx, ny): in each layer a
+    16-neighbour grid (a move's end nodes and the nodes it passes between must be free: no cutting a corner),
+    and between neighbouring layers (k, k + 1 mod K) at a node free in both a turn of length ``turn``. A node
+    no path reaches gets its layer's nearest reached node's length plus the straight distance to it (the
+    nearest in any layer where its layer has none). Also the reached nodes."""
+    n_k, nx, ny = free.shape
+    index = np.arange(n_k * nx * ny).reshape(n_k, nx, ny)
     rows, cols, lengths = [], [], []
-    for di, dj in _MOVES:
+    for di, dj in _MOVES:                  # in every layer at once
         ok = _window(free, di, dj) & _window(free, di, dj, di, dj)
         if di and dj:     # a diagonal passes (i + si, j) and (i, j + sj); a knight's move (i + si, j + sj) too
             si, sj = int(np.sign(di)), int(np.sign(dj))
@@ -173,9 +212,20 @@ def _geodesic(free: np.ndarray, source: tuple[int, int], cell: float) -> tuple[n
         rows.append(src)
         cols.append(src + di * ny + dj)
         lengths.append(np.full(src.shape, np.hypot(di, dj) * cell))
+    if n_k > 1:
+        both = free & np.roll(free, -1, axis=0)
+        a, b = index[both], np.roll(index, -1, axis=0)[both]
+        rows += [a, b]
+        cols += [b, a]
+        lengths += [np.full(a.shape, turn)] * 2
     graph = coo_matrix((np.concatenate(lengths), (np.concatenate(rows), np.concatenate(cols))),
-                       shape=(nx * ny, nx * ny)).tocsr()
-    dist = dijkstra(graph, indices=index[source]).reshape(nx, ny)
+                       shape=(index.size, index.size)).tocsr()
+    dist = dijkstra(graph, indices=[index[s] for s in sources], min_only=True).reshape(n_k, nx, ny)
     reached = np.isfinite(dist)
-    steps, (ii, jj) = ndimage.distance_transform_edt(~reached, return_indices=True)
-    return np.where(reached, dist, dist[ii, jj] + steps * cell), reached
+    out = np.empty_like(dist)
+    for k in range(n_k):
+        near = reached[k] if reached[k].any() else reached.any(0)
+        lengths_k = dist[k] if reached[k].any() else np.where(reached, dist, np.inf).min(0)
+        steps, (ii, jj) = ndimage.distance_transform_edt(~near, return_indices=True)
+        out[k] = np.where(near, lengths_k, lengths_k[ii, jj] + steps * cell)
+    return out, reached

@@ -168,11 +168,15 @@ class Problem:
         put(self, "region", region)
         put(self, "region_rows", goal_rows)
         guide = None
-        # disc-only scenes keep the detour round the discs (docs/workspaces.md#global-guidance: on Task III
-        # the cost-to-go, whose footprint may turn to fit, led the T into the gap beside the disc)
-        if self.weights.guidance and (polys or bounds is not None) and region is None:
-            guide = cost_to_go(self.shape.polygons, self.shape.bounding_radius, goal, discs, polys, corners,
-                               self.weights.obstacle_margin_m, self.weights.guidance_cell_m)
+        # disc-only scenes keep the detour round the discs, a footprint's reach from each, alone
+        # (docs/workspaces.md#discs-alone-keep-the-detour-2026-12-05)
+        if self.weights.guidance and region is None and (polys or bounds is not None):
+            # the object's own bounds (a robot's reach) bound its way too
+            area = [rows for rows in (bounds, object_bounds) if rows is not None]
+            guide = cost_to_go(self.shape.polygons, self.shape.bounding_radius, goal, discs, polys,
+                               tuple(halfplane_corners(rows) for rows in area) or None,
+                               self.weights.obstacle_margin_m, self.weights.guidance_cell_m,
+                               self.weights.guidance_turn_m)
         put(self, "guide", guide)
         put(self, "contour", Contour.of(self.shape))
         put(self, "scene", Scene.make(self.shape, goal, discs, self.weights, COST_OUTLINE_EDGES, polys, bounds,

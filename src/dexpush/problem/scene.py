@@ -58,8 +58,8 @@ class Scene:
     #: ``polygons``; and (Q, V, 3) their half-planes (:func:`footprint_pieces`)
     pieces: jnp.ndarray = None  # type: ignore[assignment]
     piece_planes: jnp.ndarray = None  # type: ignore[assignment]
-    #: (N_x, N_y) the cost-to-go V on its grid (:class:`dexpush.problem.guidance.CostToGo`); (0, 0)
-    #: without one. ``guide_lo`` (2,) is the grid's first node, ``guide_cell`` its spacing (m).
+    #: (K, N_x, N_y) the cost-to-go V on its grid, K heading layers (:class:`dexpush.problem.guidance.CostToGo`);
+    #: (0, 0, 0) without one. ``guide_lo`` (2,) is the grid's first node, ``guide_cell`` its spacing (m).
     guide: jnp.ndarray = None  # type: ignore[assignment]
     guide_lo: jnp.ndarray = None  # type: ignore[assignment]
     guide_cell: jnp.ndarray = None  # type: ignore[assignment]
@@ -137,7 +137,7 @@ class Scene:
         bounds = np.zeros((0, 3)) if bounds is None else np.asarray(bounds, np.float64).reshape(-1, 3)
         object_bounds, pusher_bounds = (np.zeros((0, 3)) if b is None else np.asarray(b, np.float64).reshape(-1, 3)
                                         for b in (object_bounds, pusher_bounds))
-        values, lo, cell = (np.zeros((0, 0)), np.zeros(2), 1.0) if guide is None else (guide.values, guide.lo,
+        values, lo, cell = (np.zeros((0, 0, 0)), np.zeros(2), 1.0) if guide is None else (guide.values, guide.lo,
                                                                                            guide.cell)
         f32 = partial(jnp.asarray, dtype=jnp.float32)
         if region is None:

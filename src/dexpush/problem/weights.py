@@ -42,6 +42,10 @@ class CostWeights:
     guidance: bool = True
     #: the cost-to-go's grid spacing (m)
     guidance_cell_m: float = 0.02
+    #: the cost-to-go's length of a turn (m per radian): V has one layer per heading and knows where the
+    #: footprint fits in the heading it has; None: one layer, free where it fits in some heading (with the
+    #: detour round discs beside it). See docs/workspaces.md#global-guidance.
+    guidance_turn_m: float | None = 0.1
 
     def __post_init__(self) -> None:
         for name in ("q_f", "q_r1", "q_r2", "c"):
@@ -57,6 +61,8 @@ class CostWeights:
         check_positive("guidance_cell_m", self.guidance_cell_m, "m")
         if not 0.005 <= self.guidance_cell_m <= 0.1:
             raise ValueError(f"guidance_cell_m must be between 0.005 and 0.1 m, got {self.guidance_cell_m!r}")
+        if self.guidance_turn_m is not None:
+            check_positive("guidance_turn_m", self.guidance_turn_m, "m per radian, or None")
         if self.r_s_clearance is not None:
             check_nonnegative("r_s_clearance", self.r_s_clearance, "m, or None")
 
