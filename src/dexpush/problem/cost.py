@@ -124,8 +124,8 @@ def guided_length_sq(x: jnp.ndarray, y: jnp.ndarray, th: jnp.ndarray, scene: Sce
 
 def goal_distance_sq(x: State, scene: Scene, c: float) -> jnp.ndarray:
     """d²(q_sb, q_g) of eq. (9b–9c) for states x: the decoupled distance, whose position part is
-    ℓ² along the cost-to-go (:func:`guided_length_sq`) when the scene has one (the larger of it and the
-    detour where the scene also has discs and the object has no bounds of its own), round the detour
+    ℓ² along the cost-to-go (:func:`guided_length_sq`) when the scene has one (with one layer, the larger of
+    it and the detour where the scene also has discs and the object has no bounds of its own), round the detour
     discs (:func:`detour_length_sq`) when it has those alone, and straight otherwise. For a goal region
     (:mod:`dexpush.problem.goal_region`) the position part is the squared distance to its aimed part
     (:func:`dexpush.problem.goal_region.region_distance_sq`), and the heading part counts only where the region
