@@ -184,8 +184,7 @@ def plot_guidance(shape: Shape, problem: object, states: np.ndarray | None = Non
     guide = problem.guide
     fig, ax = plt.subplots(figsize=(7, 5.5))
     if guide is not None:
-        heading = 0.0 if states is None else float(np.asarray(states)[0, 2])
-        k = int(np.round(heading * guide.headings / (2 * np.pi))) % guide.headings
+        k = guide.layer(0.0 if states is None else float(np.asarray(states)[0, 2]))
         _, nx, ny = guide.values.shape
         xs = guide.lo[0] + guide.cell * np.arange(nx)
         ys = guide.lo[1] + guide.cell * np.arange(ny)

@@ -116,7 +116,7 @@ def guided_length_sq(x: jnp.ndarray, y: jnp.ndarray, th: jnp.ndarray, scene: Sce
         k0 = jnp.minimum(jnp.floor(t), n_k - 1.0)
         ft = t - k0
         k0 = k0.astype(jnp.int32)
-        val = (1 - ft) * layer(k0) + ft * layer(jnp.where(k0 + 1 == n_k, 0, k0 + 1))
+        val = (1 - ft) * layer(k0) + ft * layer((k0 + 1) % n_k)
     dx, dy = x - scene.goal[0], y - scene.goal[1]
     ell = jnp.maximum((val - h) / (1.0 + GRID_STRETCH), 0.0)
     return jnp.maximum(dx * dx + dy * dy, ell * ell)

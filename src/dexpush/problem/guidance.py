@@ -39,7 +39,7 @@ from scipy.sparse.csgraph import dijkstra
 from dexpush.model.polygons import inside_polygon
 from dexpush.problem.regions import point_gap
 
-__all__ = ["GRID_STRETCH", "HEADINGS", "CostToGo", "cost_to_go"]
+__all__ = ["GRID_STRETCH", "HEADINGS", "CostToGo", "cost_to_go", "nearest_layer"]
 
 #: the headings tried for a free position (every 360°/HEADINGS)
 HEADINGS = 16
@@ -68,6 +68,10 @@ class CostToGo:
     def headings(self) -> int:
         """K, the number of heading layers (1: V does not depend on the heading)."""
         return int(self.values.shape[0])
+
+    def layer(self, heading: float) -> int:
+        """The layer whose heading is nearest ``heading`` (rad)."""
+        return nearest_layer(heading, self.headings)
 
     def shifted(self, origin: np.ndarray) -> CostToGo:
         """The same field in a frame whose origin is at ``origin`` (x, y, ...) of this one."""
@@ -104,6 +108,11 @@ class CostToGo:
             val = ((1 - ft) * pick(layers, k0[None], 0)[0]
                    + ft * pick(layers, ((k0 + 1) % self.headings)[None], 0)[0])
         return val + np.hypot(*np.moveaxis(u - uc, -1, 0)) * self.cell
+
+
+def nearest_layer(heading: float, layers: int) -> int:
+    """The index k of the heading θ_k = 2πk/``layers`` nearest ``heading`` (rad)."""
+    return int(np.round(heading * layers / (2 * np.pi))) % layers
 
 
 def _footprint_samples(polygons: tuple[np.ndarray, ...], cell: float) -> np.ndarray:
@@ -176,7 +185,7 @@ def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, di
         turn = 0.0
     else:
         free = fits
-        free[(int(np.round(g[2] * HEADINGS / (2 * np.pi))) % HEADINGS, *goal_node)] = True
+        free[(nearest_layer(g[2], HEADINGS), *goal_node)] = True
         sources = [(k, *goal_node) for k in range(HEADINGS) if free[(k, *goal_node)]]
         turn = turn_m * 2 * np.pi / HEADINGS
     values, reached = _geodesic(free, sources, cell, turn)
