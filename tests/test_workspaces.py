@@ -382,3 +382,11 @@ def test_discs_beside_polygons_cost_what_each_costs_alone(name: str) -> None:
     assert 0 < touch.sum() < n and np.any((apart > 0) & ~touch)   # touches, margins and free states all occur
     np.testing.assert_array_equal(whole >= w.C_pen, touch)
     np.testing.assert_allclose(whole[~touch], apart[~touch], rtol=1e-5, atol=1.0)
+
+
+@pytest.mark.parametrize("bad", [0.0, -0.1, float("nan"), float("inf")])
+def test_a_turn_length_that_is_not_positive_is_one_line(bad: float) -> None:
+    with pytest.raises(ValueError, match="guidance_turn_m"):
+        CostWeights(guidance_turn_m=bad)
+    with pytest.raises(ValueError, match="turn_m"):
+        cost_to_go(RECT.polygons, RECT.bounding_radius, np.zeros(3), np.zeros((0, 3)), (), None, 0.0, turn_m=bad)
