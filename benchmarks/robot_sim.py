@@ -67,7 +67,8 @@ def table(records: list[dict]) -> str:
              "acc. (m/s²) / jerk (m/s³) | real-time factor |", "|" + "---|" * 12]
     for task, shape in keys:
         r = row([x for x in records if (x["task"], x["shape"]) == (task, shape)])
-        lines.append(f"| {task} | {shape} | {r['success']}/{r['trials']} | {r['time_s']:.1f} | "
+        time_s = "–" if not r["success"] else f"{r['time_s']:.1f}"     # (no success: no time to goal)
+        lines.append(f"| {task} | {shape} | {r['success']}/{r['trials']} | {time_s} | "
                      f"{r['track_med_mm']:.2f} / {r['track_p99_mm']:.2f} | {r['reflex']} | {r['joint']} | "
                      f"{r['violations']} | {r['touches']} | {r['late']} | {r['max_acc']:.1f} / {r['max_jerk']:.0f} | "
                      f"{r['rtf']:.2f} |")
