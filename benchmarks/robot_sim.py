@@ -109,6 +109,7 @@ def main() -> None:
                                                     max_steps=args.max_steps)
                 rec = {**dataclasses.asdict(episode.record), "shape": shape_name, "robot": report,
                        "spread_cap": settings.mppi.spread_cap, "guidance_turn_m": settings.weights.guidance_turn_m,
+                       "guidance_goal_heading": settings.weights.guidance_goal_heading,
                        "wall_s": round(time.perf_counter() - t0, 1)}
                 with open(path, "a") as fh:
                     fh.write(json.dumps(rec) + "\n")

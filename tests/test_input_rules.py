@@ -173,6 +173,15 @@ def test_bench_reads_the_same_config_as_run_and_flags_override_it(tmp_path, caps
         capsys, ["bench", "--config", str(run_file), "--out", str(tmp_path / "b"), "--quiet"])
 
 
+def test_the_guidance_goal_heading_flag_sets_its_weight(capsys) -> None:
+    from dexpush.cli import main
+
+    assert main(["run", "--task", "IV", "--print-config"]) == 0
+    assert "guidance_goal_heading = true" in capsys.readouterr().out
+    assert main(["run", "--task", "IV", "--no-guidance-goal-heading", "--print-config"]) == 0
+    assert "guidance_goal_heading = false" in capsys.readouterr().out
+
+
 def test_camera_flags_change_one_key_each(tmp_path, capsys) -> None:
     from dexpush.cli import main
 

@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dexpush import Shape
+from dexpush.common.se2 import wrap_angle
 from dexpush.experiments.scenarios import TASKS, initial_conditions
 from dexpush.problem.guidance import GRID_STRETCH, cost_to_go
 from dexpush.problem.obstacles import _polygon_gaps_vectorised, clearance, obstacle_distances, polygon_gaps
@@ -151,19 +152,41 @@ def test_the_object_and_pusher_workspaces_bound_each_alone() -> None:
 
 
 # ---------------------------------------------------------------- guidance
-@pytest.mark.parametrize("turn_m", [None, 0.1])
-def test_cost_to_go_is_the_straight_distance_in_the_open_within_the_grid_stretch(turn_m: float | None) -> None:
-    """In the open no heading needs a turn: V is the straight distance in every heading."""
+@pytest.mark.parametrize(("turn_m", "goal_heading"), [(None, True), (0.1, False), (0.1, True)])
+def test_cost_to_go_in_the_open_is_the_straight_distance_and_the_turn_to_the_goal(turn_m: float | None,
+                                                                                   goal_heading: bool) -> None:
+    """In the open V is the straight distance (within the grid's stretch), plus, with layers ending in the
+    goal's heading, the turn to it: ρ·|θ − θ_k| to the goal's nearest layer θ_k; else the same in every heading."""
     goal = np.array([0.0, 0.0, 0.7])
     field = cost_to_go(RECT.polygons, RECT.bounding_radius, goal, np.zeros((0, 3)), (),
-                       np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]), 0.0, turn_m=turn_m)
+                       np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]), 0.0, turn_m=turn_m,
+                       goal_heading=goal_heading)
     assert field.headings == (1 if turn_m is None else 16)
     a = np.linspace(0, 2 * np.pi, 73)
     p = 0.3 * np.c_[np.cos(a), np.sin(a)]
+    goal_layer = 2 * np.pi * field.layer(goal[2]) / 16
     for heading in np.linspace(-np.pi, np.pi, 11):
-        ratio = field.at(p, heading) / 0.3
-        assert np.all(ratio >= 1 - 1e-6) and np.all(ratio <= 1 + GRID_STRETCH)
-        assert field.at(goal[:2], heading) == pytest.approx(0.0, abs=1e-9)
+        turn = 0.1 * abs(wrap_angle(heading - goal_layer)) if turn_m and goal_heading else 0.0
+        ratio = (field.at(p, heading) - turn) / 0.3
+        assert np.all(ratio >= 1 - 1e-5) and np.all(ratio <= 1 + GRID_STRETCH)
+        assert field.at(goal[:2], heading) == pytest.approx(turn, abs=1e-6)
+
+
+def test_the_turn_to_the_goals_heading_is_made_where_the_footprint_fits() -> None:
+    """Through a slot the box passes only lengthwise (heading 0) to a goal turned across it (π/2): from the
+    start lengthwise V is the way and one quarter turn after the slot; crosswise, a quarter turn to pass the
+    slot and one back. Without the goal's heading, the crosswise start needs the one turn and the other none."""
+    goal = np.array([0.3, 0.0, np.pi / 2])
+    slot = (wall(0.0, -0.6, 0.0, -0.09, 0.02), wall(0.0, 0.09, 0.0, 0.6, 0.02))
+    args = (RECT.polygons, RECT.bounding_radius, goal, np.zeros((0, 3)), slot,
+            np.array([[-0.6, -0.6], [0.6, -0.6], [0.6, 0.6], [-0.6, 0.6]]), 0.01)
+    start, quarter = np.array([-0.3, 0.0]), 0.1 * np.pi / 2
+    to_heading, any_heading = cost_to_go(*args, turn_m=0.1), cost_to_go(*args, turn_m=0.1, goal_heading=False)
+    way = any_heading.at(start, 0.0)
+    assert way == pytest.approx(0.6, rel=GRID_STRETCH)
+    assert any_heading.at(start, np.pi / 2) - way == pytest.approx(quarter, abs=0.02)
+    assert to_heading.at(start, 0.0) - way == pytest.approx(quarter, abs=0.02)
+    assert to_heading.at(start, np.pi / 2) - way == pytest.approx(2 * quarter, abs=0.02)
 
 
 def test_a_cost_to_go_with_headings_charges_the_turn_a_slot_needs() -> None:

@@ -31,6 +31,7 @@ _PLANNER = {
     "--detour": ("detour", ("weights", "detour")),
     "--guidance": ("guidance", ("weights", "guidance")),
     "--guidance-turn": ("guidance_turn", ("weights", "guidance_turn_m")),
+    "--guidance-goal-heading": ("guidance_goal_heading", ("weights", "guidance_goal_heading")),
     "--stall-after": ("stall_after", ("stall", "after_s")),
     "--temperature": ("temperature", ("mppi", "temperature")),
     "--spread-cap": ("spread_cap", ("mppi", "spread_cap")),
@@ -60,6 +61,10 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
                    help="the cost-to-go has a layer per heading, a turn costing M metres per radian, or one layer "
                         "where the footprint may turn to fit anywhere (off) (weights.guidance_turn_m; "
                         "docs/workspaces.md#global-guidance; default: 0.1)")
+    g.add_argument("--guidance-goal-heading", action=argparse.BooleanOptionalAction, default=None,
+                   help="the cost-to-go's way ends in the goal's heading, counting the turn to it where the "
+                        "footprint fits (default), or in any heading (--no-guidance-goal-heading; "
+                        "weights.guidance_goal_heading; docs/workspaces.md#the-turn-to-the-goals-heading-2026-12-05)")
     g.add_argument("--stall-after", type=positive_or_off("a time in seconds"), default=None, metavar="SECONDS|off",
                    help="restart the planner after this long without progress and contact, or never (off) "
                         "(stall.after_s; docs/controller.md#stalls; default: 4)")

@@ -87,7 +87,8 @@ def detour_length_sq(x: jnp.ndarray, y: jnp.ndarray, scene: Scene) -> jnp.ndarra
 def guided_length_sq(x: jnp.ndarray, y: jnp.ndarray, th: jnp.ndarray, scene: Scene) -> jnp.ndarray:
     """ℓ², ℓ = max(‖p − g‖, (V(p, θ) − h)/(1 + κ)): the goal distance along the cost-to-go V of
     :mod:`dexpush.problem.guidance` (``scene.guide``; h its grid spacing, κ = ``GRID_STRETCH``), which
-    is the straight-line distance wherever the straight way is free and the way round otherwise.
+    is the straight-line distance wherever the straight way is free (in the goal's heading, where V counts
+    the turn to it) and the way round otherwise.
 
     V is bilinear between the grid's nodes, linear between its heading layers θ_k = 2πk/K where it has
     K > 1 (with one it holds for every heading), and, beyond the grid, V at its nearest edge point (there

@@ -16,14 +16,17 @@ through the positions where the footprint fits in some heading, computed once pe
 
 With a turn length ρ (``turn_m``, m per radian) V has one layer per heading θ_k = 2πk/K, K = :data:`HEADINGS`:
 node (k, i, j) is free where the footprint fits in θ_k, the grid moves stay in their layer, a turn to a
-neighbouring layer at a node free in both costs ρ·2π/K, and every heading at the goal's node is a goal (the
-cost's own heading term charges the goal heading). V(p, θ) is then the length of the way from p that the
-footprint can take in the heading it has, turning where it fits; without ρ it is the way for a footprint
-that turns to fit anywhere at no cost.
+neighbouring layer at a node free in both costs ρ·2π/K, and the goal is the goal's node in the layer of the
+goal's heading (``goal_heading``; otherwise every heading at the goal's node, the turn left to the cost's
+heading term). V(p, θ) is then the length of the way from p that the footprint can take in the heading it
+has, turning where it fits, to the goal pose: in the open ‖p − g‖ + ρ·|θ − θ_g| (up to the grid's stretch
+and the layers' spacing); without ρ it is the way for a footprint that turns to fit anywhere at no cost.
 
 The cost (:func:`dexpush.problem.cost.guided_length_sq`) uses ℓ = max(‖p − g‖, (V(p, θ) − h)/(1 + κ)), κ =
 :data:`GRID_STRETCH`: ℓ is the straight-line distance wherever the way to the goal is straight and free
-(so the cost near the goal, and in the open, is eq. (9)'s), and the path round otherwise.
+and the heading is the goal's (so the cost there is eq. (9)'s), the path round otherwise, and, with the goal's
+heading, longer by the turn still to make (ρ·|θ − θ_g| less h, in the open), so the footprint is drawn to
+turn where it fits rather than carried into a place where it cannot.
 """
 
 from __future__ import annotations
@@ -133,14 +136,15 @@ def _footprint_samples(polygons: tuple[np.ndarray, ...], cell: float) -> np.ndar
 
 def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, discs: np.ndarray,
                polygons: tuple[np.ndarray, ...], workspace: np.ndarray | tuple[np.ndarray, ...] | None,
-               margin: float, cell: float = 0.02, turn_m: float | None = None) -> CostToGo:
+               margin: float, cell: float = 0.02, turn_m: float | None = None,
+               goal_heading: bool = True) -> CostToGo:
     """The cost-to-go of the module docstring for a footprint (its polygons in {B}, ``reach`` its largest
     distance from the reference) pushed to ``goal`` (x, y, θ) past ``discs`` (M, 3), convex ``polygons`` and
     inside the convex ``workspace`` corners, or inside each of a tuple of them (None: unbounded), keeping
     ``margin`` (m) clear, on a grid of ``cell`` (m). The grid spans the workspace, or the goal and the
     obstacles with room for the footprint round them. ``turn_m`` (m per radian) gives V one layer per
-    heading, a turn at a node costing ``turn_m`` per radian; None gives one layer, free where the footprint
-    fits in some heading."""
+    heading, a turn at a node costing ``turn_m`` per radian, and with ``goal_heading`` the way ends in the
+    goal's heading (else in any); None gives one layer, free where the footprint fits in some heading."""
     t0 = time.perf_counter()
     if turn_m is not None and not (np.isfinite(turn_m) and turn_m > 0):
         raise ValueError(f"turn_m must be positive (m per radian) or None, got {turn_m!r}")
@@ -185,8 +189,10 @@ def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, di
         turn = 0.0
     else:
         free = fits
-        free[(nearest_layer(g[2], HEADINGS), *goal_node)] = True
-        sources = [(k, *goal_node) for k in range(HEADINGS) if free[(k, *goal_node)]]
+        goal_layer = nearest_layer(g[2], HEADINGS)
+        free[(goal_layer, *goal_node)] = True
+        sources = ([(goal_layer, *goal_node)] if goal_heading
+                   else [(k, *goal_node) for k in range(HEADINGS) if free[(k, *goal_node)]])
         turn = turn_m * 2 * np.pi / HEADINGS
     values, reached = _geodesic(free, sources, cell, turn)
     return CostToGo(values.astype(np.float32), free, reached, lo.astype(np.float64), float(cell),

@@ -176,7 +176,7 @@ class Problem:
             guide = cost_to_go(self.shape.polygons, self.shape.bounding_radius, goal, discs, polys,
                                tuple(halfplane_corners(rows) for rows in area) or None,
                                self.weights.obstacle_margin_m, self.weights.guidance_cell_m,
-                               self.weights.guidance_turn_m)
+                               self.weights.guidance_turn_m, self.weights.guidance_goal_heading)
         put(self, "guide", guide)
         put(self, "contour", Contour.of(self.shape))
         put(self, "scene", Scene.make(self.shape, goal, discs, self.weights, COST_OUTLINE_EDGES, polys, bounds,

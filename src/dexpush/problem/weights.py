@@ -46,6 +46,10 @@ class CostWeights:
     #: footprint fits in the heading it has; None: one layer, free where it fits in some heading (with the
     #: detour round discs beside it). See docs/workspaces.md#global-guidance.
     guidance_turn_m: float | None = 0.1
+    #: with ``guidance_turn_m``, the cost-to-go's way ends in the goal's heading, so V counts the turn to it
+    #: where the footprint fits to make it; False: in any heading, the turn left to the heading term of d².
+    #: See docs/workspaces.md#the-turn-to-the-goals-heading.
+    guidance_goal_heading: bool = True
 
     def __post_init__(self) -> None:
         for name in ("q_f", "q_r1", "q_r2", "c"):
