@@ -24,14 +24,7 @@ from dexpush.common.checks import check_positive
 from dexpush.common.se2 import wrap_angle
 from dexpush.model.shape import Shape
 from dexpush.robot.driver import DriverSettings
-from dexpush.robot.franky_sim_hooks import (
-    FRANKA_LIMITS,
-    Checks,
-    force_grasps,
-    loopback_only,
-    report_commanded_acceleration,
-    watch_commands,
-)
+from dexpush.robot.franky_sim_hooks import FRANKA_LIMITS, Checks, force_grasps, loopback_only, watch_commands
 from dexpush.robot.tabletop import Tabletop, finger_contacts, tabletop_xml
 from dexpush.world.physics_plant import PhysicsSettings, SceneExtras, scene_xml
 
@@ -344,7 +337,6 @@ def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...],
     lo, hi = model.jnt_range[joints, 0], model.jnt_range[joints, 1]
     checks = Checks()
     watch_commands(server.robot_servers[0], checks)
-    report_commanded_acceleration(robot, checks)
 
     def publish() -> None:
         q = data.qpos[qadr:qadr + 7]

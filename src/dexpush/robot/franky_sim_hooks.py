@@ -1,7 +1,6 @@
 """What dexpush changes in franky-sim's process (:mod:`dexpush.robot.franka_sim` runs it in a child of its own):
 its servers bind loopback addresses only (:func:`loopback_only`), the client's stream of Cartesian velocity
-commands is checked against a real Franka's limits (:class:`Checks`, :func:`watch_commands`), the robot reports
-the commanded acceleration of that stream as a Franka does (:func:`report_commanded_acceleration`), and a grasp
+commands is checked against a real Franka's limits (:class:`Checks`, :func:`watch_commands`), and a grasp
 presses with its force (:func:`force_grasps`).
 """
 
@@ -9,8 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FRANKA_LIMITS", "Checks", "force_grasps", "loopback_only", "report_commanded_acceleration",
-           "watch_commands"]
+__all__ = ["FRANKA_LIMITS", "Checks", "force_grasps", "loopback_only", "watch_commands"]
 
 #: the Franka's Cartesian limits on the commanded tip motion (translation): m/s, m/s², m/s³
 FRANKA_LIMITS = {"velocity": 1.7, "acceleration": 13.0, "jerk": 6500.0}
@@ -22,18 +20,14 @@ _GAP_S = 0.005
 
 class Checks:
     """The commanded tip motion against :data:`FRANKA_LIMITS`, from each command of the client's 1 kHz
-    stream (a millisecond without one is counted in ``missed``; the next difference spans the gap).
-    ``acceleration`` is the last commanded twist's rate of change (6, base frame; zero at a motion's start)."""
+    stream (a millisecond without one is counted in ``missed``; the next difference spans the gap); ``a`` is the
+    last commanded twist's rate of change (6, base frame; None at a motion's start)."""
 
     def __init__(self) -> None:
         self.v = self.a = self.mode = None
         self.t = 0.0
         self.max_a = self.max_j = 0.0
         self.over = self.missed = 0
-
-    @property
-    def acceleration(self) -> np.ndarray:
-        return np.zeros(6) if self.a is None else self.a
 
     def command(self, mode: str, v: np.ndarray, t: float) -> None:
         """One command: ``v`` the commanded twist (6: translation, rotation; the limits apply to the
@@ -74,33 +68,6 @@ def watch_commands(robot_server: object, checks: Checks) -> None:
             checks.command(mode, np.asarray(cmd.O_dP_EE_c, dtype=np.float64), cmd.message_id * 1e-3)
 
     robot_server._handle_udp_command = handle_and_check
-
-
-class _CommandedAcceleration:
-    """Stands in for franky-sim's finite-difference observer of the commanded twist: called with each
-    (time, twist) it keeps nothing; its ``last_derivative`` is the commanded acceleration of :class:`Checks`."""
-
-    def __init__(self, checks: Checks) -> None:
-        self._checks = checks
-
-    def __call__(self, t: float, value: object) -> None:
-        pass
-
-    @property
-    def last_derivative(self) -> np.ndarray:
-        return self._checks.acceleration
-
-
-def report_commanded_acceleration(robot: object, checks: Checks) -> None:
-    """Make the simulated robot report, in ``O_ddP_EE_c``, the acceleration of the Cartesian velocity commands
-    it received, differenced by their message ids (:class:`Checks`, fed by :func:`watch_commands`), as a
-    Franka reports the rate of its 1 kHz commands.
-
-    franky-sim differences the commanded twist over the times the commands arrive and smooths it (α = 0.95
-    per millisecond, about 20 ms of lag), so a late or bunched command shows as a spike and a turn shows late.
-    franky starts each new velocity motion's Ruckig profile from the reported acceleration: a wrong one
-    becomes a jerk in the next commands (docs/robot.md#commanded-jerk-in-the-simulator)."""
-    robot._tracked_state_components["O_dP_EE_c"].observers["fd"] = _CommandedAcceleration(checks)
 
 
 def loopback_only() -> None:
