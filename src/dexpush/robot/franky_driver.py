@@ -12,6 +12,7 @@ height and a vertical tool (a proportional correction, capped).
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 
 import numpy as np
 
@@ -98,22 +99,23 @@ class FrankyDriver:
             raise RobotError(f"cannot read the Franka's clock (the connection to the robot is lost?): {exc}") from exc
 
     # ------------------------------------------------------------------ motion
-    def _move(self, motion: object, asynchronous: bool) -> None:
-        """``robot.move``, retried once: franky's motion generator sometimes fails to plan from the present
-        state (Ruckig's codes -110/-111); a robot error is cleared first when the robot reports one."""
+    def _move(self, make: Callable[[], object], asynchronous: bool) -> None:
+        """``robot.move`` of the motion ``make()`` builds, retried once with a new one (franky starts a motion
+        object once): franky's motion generator sometimes fails to plan from the present state (Ruckig's codes
+        -110/-111); a robot error is cleared first when the robot reports one."""
         try:
-            self.robot.move(motion, asynchronous=asynchronous)
+            self.robot.move(make(), asynchronous=asynchronous)
         except Exception as exc:
             self.errors.append(f"{type(exc).__name__}: {exc}")
             self.retries += 1
             if self.robot.has_errors:
                 self.robot.recover_from_errors()
-            self.robot.move(motion, asynchronous=asynchronous)
+            self.robot.move(make(), asynchronous=asynchronous)
 
     def _pose_motion(self, xyz: np.ndarray) -> None:
         f = self._f
         ee = xyz - _rotation(DOWN) @ np.array([0.0, 0.0, self.settings.tool_offset])
-        self._move(f.CartesianMotion(f.Affine(ee.tolist(), DOWN.tolist())), asynchronous=False)
+        self._move(lambda: f.CartesianMotion(f.Affine(ee.tolist(), DOWN.tolist())), asynchronous=False)
 
     def move_to(self, xy: object) -> None:
         """Lift to the approach height, travel above ``xy``, and lower the tip to the working height."""
@@ -150,10 +152,10 @@ class FrankyDriver:
             raise ValueError(f"velocity must be finite, got {v.tolist()}")
         with self._lock:
             lin, ang = self._twist(v)
-            motion = f.CartesianVelocityMotion(f.RobotVelocity(f.Twist(lin, ang)),
-                                               duration=f.Duration(round(self.settings.command_hold_s * 1e3)))
+            hold = round(self.settings.command_hold_s * 1e3)
             try:
-                self._move(motion, asynchronous=True)
+                self._move(lambda: f.CartesianVelocityMotion(f.RobotVelocity(f.Twist(lin, ang)),
+                                                             duration=f.Duration(hold)), asynchronous=True)
             except Exception as exc:
                 self.errors.append(f"{type(exc).__name__}: {exc}")
                 raise RobotError(f"the Franka refused a velocity command twice: {exc}") from exc
@@ -168,9 +170,9 @@ class FrankyDriver:
         with self._lock:
             self.stops += 1
             try:
-                zero = f.CartesianVelocityMotion(f.RobotVelocity(f.Twist([0.0, 0.0, 0.0], [0.0, 0.0, 0.0])),
-                                                 duration=f.Duration(0))
-                self._move(zero, asynchronous=True)
+                self._move(lambda: f.CartesianVelocityMotion(
+                    f.RobotVelocity(f.Twist([0.0, 0.0, 0.0], [0.0, 0.0, 0.0])), duration=f.Duration(0)),
+                    asynchronous=True)
                 self.robot.join_motion(timeout=2.0)
             except Exception as exc:      # the robot already stopped with an error: say so, do not raise
                 self.errors.append(f"{type(exc).__name__}: {exc}")

@@ -1,0 +1,65 @@
+"""The Franka driver's retry (:class:`dexpush.robot.franky_driver.FrankyDriver`), against a stand-in for
+franky-control that fails a motion's first plan and, like franky 2.0, refuses to start a motion object twice."""
+
+from __future__ import annotations
+
+import threading
+import types
+
+import pytest
+
+from dexpush.robot.driver import DriverSettings, RobotError
+from dexpush.robot.franky_driver import FrankyDriver
+
+
+class _Motion:
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        self.started = False
+
+
+class _Robot:
+    """Fails the first ``fails`` moves as franky's planner does (code -111) and any motion started before."""
+
+    def __init__(self, fails: int) -> None:
+        self.fails, self.moves, self.has_errors = fails, [], False
+        pose = types.SimpleNamespace(translation=[0.5, 0.0, 0.2], quaternion=[1.0, 0.0, 0.0, 0.0])
+        self.current_cartesian_state = types.SimpleNamespace(pose=types.SimpleNamespace(end_effector_pose=pose))
+
+    def move(self, motion: _Motion, asynchronous: bool = False) -> None:
+        if motion.started:
+            raise RuntimeError("This motion object has already been started before.")
+        motion.started = True
+        if self.fails:
+            self.fails -= 1
+            raise RuntimeError("Motion planner failed with error code -111")
+        self.moves.append(motion)
+
+    def join_motion(self, timeout: float | None = None) -> None:
+        pass
+
+
+_FRANKY = types.SimpleNamespace(CartesianVelocityMotion=_Motion, RobotVelocity=lambda t: t, Twist=lambda a, b: (a, b),
+                                Duration=lambda ms: ms, CartesianMotion=_Motion, Affine=lambda p, q: (p, q))
+
+
+def _driver(fails: int) -> FrankyDriver:
+    driver = object.__new__(FrankyDriver)
+    driver._f, driver.settings, driver._lock = _FRANKY, DriverSettings(), threading.RLock()
+    driver.robot, driver.sent, driver.retries, driver.stops, driver.errors = _Robot(fails), 0, 0, 0, []
+    return driver
+
+
+def test_a_failed_plan_is_retried_with_a_new_motion() -> None:
+    driver = _driver(fails=1)
+    driver.send([0.02, 0.0])
+    assert driver.sent == 1 and driver.retries == 1 and len(driver.robot.moves) == 1
+    assert "-111" in driver.errors[0]
+
+
+def test_a_command_failing_twice_is_a_robot_error_and_a_stop_never_raises() -> None:
+    driver = _driver(fails=2)
+    with pytest.raises(RobotError, match="refused a velocity command twice"):
+        driver.send([0.02, 0.0])
+    driver.robot.fails = 2
+    driver.stop()
+    assert driver.stops == 1 and len(driver.errors) >= 3
