@@ -48,7 +48,7 @@ class CostWeights:
     guidance_turn_m: float | None = 0.1
     #: with ``guidance_turn_m``, the cost-to-go's way ends in the goal's heading, so V counts the turn to it
     #: where the footprint fits to make it; False: in any heading, the turn left to the heading term of d².
-    #: See docs/workspaces.md#the-turn-to-the-goals-heading.
+    #: See docs/workspaces.md#the-turn-to-the-goals-heading-2026-12-05.
     guidance_goal_heading: bool = True
 
     def __post_init__(self) -> None:

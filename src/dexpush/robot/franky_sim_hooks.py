@@ -21,7 +21,7 @@ _GAP_S = 0.005
 class Checks:
     """The commanded tip motion against :data:`FRANKA_LIMITS`, from each command of the client's 1 kHz
     stream (a millisecond without one is counted in ``missed``; the next difference spans the gap); ``a`` is the
-    last commanded twist's rate of change (6, base frame; None at a motion's start)."""
+    last commanded acceleration (m/s², base frame; None at a motion's start)."""
 
     def __init__(self) -> None:
         self.v = self.a = self.mode = None
@@ -30,8 +30,7 @@ class Checks:
         self.over = self.missed = 0
 
     def command(self, mode: str, v: np.ndarray, t: float) -> None:
-        """One command: ``v`` the commanded twist (6: translation, rotation; the limits apply to the
-        translation) at ``t`` (s, the command's clock)."""
+        """One command: ``v`` the commanded tip velocity (m/s, base frame) at ``t`` (s, the command's clock)."""
         if mode != self.mode or not (0 < t - self.t <= _GAP_S):   # a new motion (or a new connection)
             self.mode, self.v, self.a = mode, None, None
         if self.v is not None:
@@ -39,10 +38,10 @@ class Checks:
             self.missed += round(dt / 1e-3) - 1
             a = (v - self.v) / dt
             if self.a is not None:
-                j = float(np.linalg.norm(a[:3] - self.a[:3])) / dt
+                j = float(np.linalg.norm(a - self.a)) / dt
                 self.max_j = max(self.max_j, j)
                 self.over += j > FRANKA_LIMITS["jerk"]
-            na = float(np.linalg.norm(a[:3]))
+            na = float(np.linalg.norm(a))
             self.max_a = max(self.max_a, na)
             self.over += na > FRANKA_LIMITS["acceleration"]
             self.a = a
@@ -65,7 +64,7 @@ def watch_commands(robot_server: object, checks: Checks) -> None:
         cmd = UDPCommand.from_bytes(command_data)
         mode = getattr(getattr(robot_server, "_FrankaRobotServer__control_mode", None), "value", "")
         if cmd.message_id > 0 and not cmd.motion_generation_finished and mode == "cartesian_velocity":
-            checks.command(mode, np.asarray(cmd.O_dP_EE_c, dtype=np.float64), cmd.message_id * 1e-3)
+            checks.command(mode, np.asarray(cmd.O_dP_EE_c[:3], dtype=np.float64), cmd.message_id * 1e-3)
 
     robot_server._handle_udp_command = handle_and_check
 
