@@ -3,8 +3,14 @@ to goal, tip tracking, limit checks and real-time factor per task and shape (doc
 
     python benchmarks/robot_sim.py --out docs/results/robot [--tasks I,II,III,IV] [--shapes rect]
                                    [--seeds 0-29] [--max-steps 1500]
-                                   [--camera rendered [--camera-setup two]]
+                                   [--camera rendered [--camera-setup two]] [--without-arm]
+                                   [--with-filter] [--reach R_MIN,R_MAX]
                                    [planner flags of `dexpush bench`: --spread-cap C|off, --guidance-turn M|off, ...]
+
+With ``--without-arm`` the same placed and bounded problems run on the physics plant with no robot (the
+pusher moves as commanded; no filter, no guard, no robot clock; seconds an episode): what fails there is
+the planner's in the arm's band, what fails only on the robot is the arm's
+(docs/robot.md#the-arms-problem-without-the-arm).
 
 MPPI with the UKF from λ_pred = [15, 0, 0] (unknown λ), the noise-model camera (15 Hz, 1 mm / 0.5°,
 60 ms, 5 % drops) on the robot plant, the planner behind the frame guard and the safety filter, the
@@ -30,7 +36,7 @@ from dexpush.cli.config import default_config
 from dexpush.cli.flags import add_planner_flags, planner_overrides
 from dexpush.common.files import atomic_path
 from dexpush.experiments.registry import make_shape
-from dexpush.experiments.robot_trial import RobotSettings, run_robot_episode
+from dexpush.experiments.robot_trial import RobotSettings, run_arm_problem, run_robot_episode
 from dexpush.experiments.scenarios import MAX_STEPS, get_task
 from dexpush.world.rendered_camera import SETUPS, RenderSettings
 from dexpush.world.sensing import SensorSettings
@@ -41,6 +47,16 @@ def seeds(text: str) -> list[int]:
         a, b = text.split("-")
         return list(range(int(a), int(b) + 1))
     return [int(s) for s in text.split(",")]
+
+
+def reach_pair(text: str) -> tuple[float, float]:
+    try:
+        r_min, r_max = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected R_MIN,R_MAX in m, e.g. 0.36,0.80; got {text!r}") from None
+    if not 0 <= r_min < r_max:
+        raise argparse.ArgumentTypeError(f"expected 0 <= R_MIN < R_MAX, got {text!r}")
+    return r_min, r_max
 
 
 def row(records: list[dict]) -> dict:
@@ -58,6 +74,23 @@ def row(records: list[dict]) -> dict:
             "late": int(sum(r["late_steps"] for r in rob)), "rtf": med("real_time_factor", rob),
             "max_acc": float(max(r["max_commanded_acceleration"] for r in rob)) if rob else float("nan"),
             "max_jerk": float(max(r["max_commanded_jerk"] for r in rob)) if rob else float("nan")}
+
+
+def arm_free_table(records: list[dict]) -> str:
+    """The table of ``--without-arm`` records: no robot side, the failures' distances to the goal instead."""
+    keys = sorted({(r["task"], r["shape"]) for r in records})
+    lines = ["| task | shape | success | time to goal (s, median) | touches | failures end (cm from the goal) | "
+             "straight way's room in the band (cm, median) |", "|" + "---|" * 7]
+    for task, shape in keys:
+        rs = [x for x in records if (x["task"], x["shape"]) == (task, shape)]
+        ok = [x["time_s"] for x in rs if x["success"]]
+        ends = ", ".join(f"{100 * x['final_error_m']:.1f}" for x in sorted(rs, key=lambda x: x["final_error_m"])
+                         if not x["success"]) or "–"
+        room = [x["way_room_m"] for x in rs if "way_room_m" in x]
+        lines.append(f"| {task} | {shape} | {len(ok)}/{len(rs)} | {np.median(ok) if ok else float('nan'):.1f} | "
+                     f"{sum(x['collisions'] > 0 for x in rs)} | {ends} | "
+                     f"{100 * np.median(room) if room else float('nan'):.1f} |")
+    return "\n".join(lines) + "\n"
 
 
 def table(records: list[dict]) -> str:
@@ -87,6 +120,13 @@ def main() -> None:
                     help="the rendered cameras' set-up (docs/perception.md#the-rendered-camera; default oblique)")
     ap.add_argument("--max-steps", type=int, default=MAX_STEPS,
                     help=f"control steps before giving up (default {MAX_STEPS}, the benchmark's N_max)")
+    ap.add_argument("--reach", type=reach_pair, default=None, metavar="R_MIN,R_MAX",
+                    help="the arm's pushing reach from its base's axis (m; default that of DriverSettings, the FR3's "
+                         "with a 5 cm tool at table height)")
+    ap.add_argument("--without-arm", action="store_true",
+                    help="the arm's problem on the physics plant with no robot (the pusher moves as commanded)")
+    ap.add_argument("--with-filter", action="store_true",
+                    help="with --without-arm: the planner behind the robot's frame guard and safety filter")
     add_planner_flags(ap)     # --spread-cap C|off, --guidance-turn M|off, ...: the planner's defaults otherwise
     args = ap.parse_args()
     settings = default_config(planner_overrides(args)[0]).controller
@@ -94,7 +134,23 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     path = out / "records.jsonl"
     records = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
+    if args.with_filter and not args.without_arm:
+        raise SystemExit("error: --with-filter goes with --without-arm (on the robot the filter is always on)")
+    plant = "physics" if args.without_arm else "franka-sim"
+    if any(r["plant"] != plant for r in records):
+        raise SystemExit(f"error: {path} holds episodes of another plant than {plant}: use another --out")
+    filtered = args.with_filter or not args.without_arm
+    if any(r.get("filtered", r["plant"] != "physics") != filtered for r in records):
+        raise SystemExit(f"error: {path} holds episodes {'without' if filtered else 'with'} the safety filter: "
+                         "use another --out")
     done = {(r["task"], r["shape"], r["seed"]) for r in records}
+    write_table = arm_free_table if args.without_arm else table
+    robot = RobotSettings()
+    if args.reach is not None:
+        robot = dataclasses.replace(robot, driver=dataclasses.replace(robot.driver, reach=args.reach))
+    if any(tuple(r.get("reach", RobotSettings().driver.reach)) != robot.driver.reach for r in records):
+        raise SystemExit(f"error: {path} holds episodes with another reach than {robot.driver.reach}: "
+                         "use another --out")
     sensor = RenderSettings(setup=args.camera_setup) if args.camera == "rendered" else SensorSettings.realistic(seed=0)
     for shape_name in args.shapes.split(","):
         shape = make_shape(shape_name)
@@ -104,12 +160,19 @@ def main() -> None:
                 if (task.key, shape_name, seed) in done:
                     continue
                 t0 = time.perf_counter()
-                episode, report = run_robot_episode(task, shape, params="unknown", method="mppi-ukf", seed=seed,
-                                                    sensor=sensor, robot=RobotSettings(), settings=settings,
-                                                    max_steps=args.max_steps)
-                rec = {**dataclasses.asdict(episode.record), "shape": shape_name, "robot": report,
+                if args.without_arm:
+                    episode, side = run_arm_problem(task, shape, params="unknown", method="mppi-ukf", seed=seed,
+                                                    sensor=sensor, robot=robot, settings=settings,
+                                                    max_steps=args.max_steps, filtered=args.with_filter)
+                else:
+                    episode, report = run_robot_episode(task, shape, params="unknown", method="mppi-ukf", seed=seed,
+                                                        sensor=sensor, robot=robot, settings=settings,
+                                                        max_steps=args.max_steps)
+                    side = {"robot": report}
+                rec = {**dataclasses.asdict(episode.record), "shape": shape_name, **side,
                        "spread_cap": settings.mppi.spread_cap, "guidance_turn_m": settings.weights.guidance_turn_m,
                        "guidance_goal_heading": settings.weights.guidance_goal_heading,
+                       "reach": list(robot.driver.reach), "filtered": filtered,
                        "wall_s": round(time.perf_counter() - t0, 1)}
                 with open(path, "a") as fh:
                     fh.write(json.dumps(rec) + "\n")
@@ -117,8 +180,10 @@ def main() -> None:
                 print(f"{task.key} {shape_name} seed {seed}: {'success' if rec['success'] else 'failure'} in "
                       f"{rec['steps']} steps, {rec['wall_s']} s wall", flush=True)
                 with atomic_path(out / "table.md") as tmp:
-                    tmp.write_text(table(records))
-    print(table(records))
+                    tmp.write_text(write_table(records))
+    with atomic_path(out / "table.md") as tmp:
+        tmp.write_text(write_table(records))
+    print(write_table(records))
     print(json.dumps({"records": len(records), "folder": str(out)}))
 
 

@@ -9,7 +9,10 @@ Ctrl-C; a second loses the connection. Each test reads one of them.
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -245,3 +248,24 @@ def test_the_rendered_camera_sees_the_robot_world_with_the_arm_in_it() -> None:
     assert abs(frame.object_pose[2] - truth[2]) < np.radians(1.5)
     drawn = np.abs(with_arm.astype(int) - without.astype(int)) > 40
     assert drawn.mean() > 0.005                # the arm is in the picture
+
+
+def test_the_robot_benchmark_runs_the_arms_problem_without_the_arm(tmp_path) -> None:
+    """``robot_sim.py --without-arm``: the placed, bounded problem on the physics plant, recorded with the way's
+    room; a folder of another plant or reach is refused in one line. (It needs no franky; it is the robot
+    benchmark's test, run with the robot's.)"""
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "robot_sim.py"
+    base = [sys.executable, str(script), "--out", str(tmp_path), "--tasks", "I", "--shapes", "tee", "--seeds", "0"]
+    proc = subprocess.run([*base, "--max-steps", "20", "--without-arm"], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    (rec,) = [json.loads(line) for line in (tmp_path / "records.jsonl").read_text().splitlines()]
+    assert rec["plant"] == "physics" and rec["steps"] == 20 and "robot" not in rec
+    assert rec["way_room_m"] < 0 and rec["reach"] == [0.36, 0.8]
+    assert "| I | tee | 0/1 |" in (tmp_path / "table.md").read_text()
+    for extra, message in (([], "another plant than franka-sim"), (["--without-arm", "--reach", "0.3,0.9"],
+                                                                     "another reach"),
+                           (["--reach", "0.5,0.4"], "expected 0 <= R_MIN < R_MAX"),
+                           (["--with-filter"], "--with-filter goes with --without-arm"),
+                           (["--without-arm", "--with-filter"], "without the safety filter")):
+        proc = subprocess.run([*base, *extra], capture_output=True, text=True, timeout=120)
+        assert proc.returncode != 0 and message in proc.stderr and "Traceback" not in proc.stderr

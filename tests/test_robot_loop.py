@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import threading
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -250,3 +251,38 @@ def test_a_task_out_of_reach_is_refused_in_one_line() -> None:
     far = DriverSettings(table_origin=(3.0, 0.0))
     with pytest.raises(ValueError, match="reach"):
         robot_area(task.problem(shape), RobotSettings(), far, (0.0, 0.0, 0.0), (-0.15, 0.0))
+
+
+def test_the_straight_ways_room_is_the_footprints_least_clearance_to_the_arms_band() -> None:
+    """``way_room``: an object that stays put at the band's middle has as much room as its corners leave to the
+    circle and to the line; narrowing the reach by δ takes at most δ of the room; the T's long push does not
+    fit the FR3's band where the box's does (docs/robot.md#the-arms-problem-without-the-arm)."""
+    from dexpush.experiments.registry import make_shape
+    from dexpush.experiments.robot_trial import RobotSettings, placed_driver, way_room
+    from dexpush.experiments.scenarios import get_task
+    from dexpush.problem.problem import Problem
+
+    robot, shape = RobotSettings(), make_shape("rect")
+    driver = DriverSettings(table_origin=(0.55, 0.0))             # the base at (−0.55, 0) in the table frame
+    r_min, r_max = driver.reach
+    inset = robot.reach_margin + 2 * shape.pusher_radius + robot.object_room
+    corners = np.concatenate(shape.footprint_world((0.0, 0.0, 0.0))) + np.array([0.55, 0.0])   # from the base
+    expected = min(r_max - inset - np.linalg.norm(corners, axis=1).max(), corners[:, 0].min() - r_min - inset)
+    problem = Problem(shape, goal=(0.0, 0.0, 0.0))
+    assert np.isclose(way_room(problem, robot, driver, (0.0, 0.0, 0.0)), expected)
+    for key, name in (("I", "tee"), ("I", "rect"), ("II", "tee")):
+        task, shape = get_task(key), make_shape(name)
+        problem = task.problem(shape, seed=3)
+        pose = task.trial_start(shape, 3)[0]
+        placed = placed_driver(problem, robot, pose)
+        room = way_room(problem, robot, placed, pose)
+        less = way_room(problem, robot, replace(placed, reach=(r_min, r_max - 0.03)), pose)
+        assert less <= room + 1e-9 and room - less <= 0.03 + 1e-9
+        if key == "I":
+            assert (room < 0) == (name == "tee")
+    task, shape = get_task("I"), make_shape("tee")                 # no distance from the base gives the T room
+    problem = task.problem(shape, seed=3)
+    pose = task.trial_start(shape, 3)[0]
+    rooms = [way_room(problem, robot, robot.driver.facing(pose[:2], problem.goal[:2], (c, 0.0)), pose)
+             for c in np.arange(r_min, r_max, 0.005)]
+    assert -0.02 < max(rooms) < 0

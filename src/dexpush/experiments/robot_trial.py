@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive
-from dexpush.common.se2 import rotate
+from dexpush.common.se2 import rotate, wrap_angle
 from dexpush.control.controller import ControllerSettings
 from dexpush.experiments.methods import Method, get_method
 from dexpush.experiments.records import Condition, Episode, make_episode
@@ -26,8 +26,9 @@ from dexpush.robot.driver import DriverSettings, RobotPlant
 from dexpush.robot.guarded import FrameGuard, GuardedController
 from dexpush.robot.safety import SafetySettings
 
-__all__ = ["EXIT_TOLERANCE_M", "Guarded", "RobotSettings", "reachable_pusher_start", "robot_area", "robot_problem",
-           "robot_sensor", "run_robot_episode", "task_centre", "task_workspace"]
+__all__ = ["EXIT_TOLERANCE_M", "Guarded", "RobotSettings", "arm_problem", "arm_safety", "placed_driver",
+           "reachable_pusher_start", "robot_area", "robot_problem", "robot_sensor", "run_arm_problem",
+           "run_robot_episode", "task_centre", "task_workspace", "way_room"]
 
 #: a tip beyond the workspace by more than this (m) counts as a workspace exit (the arm's tracking
 #: error at the boundary, well under a millimetre, does not)
@@ -134,19 +135,14 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
     if address is not None or world is not None:   # a real object is where it is: the pusher starts where the
         source = sim if world is None else world    # task puts it relative to the object
         pose, pusher = _start_at(np.asarray(source.object_pose(), dtype=np.float64), pose, pusher)
-    goal = np.asarray(task_problem.goal[:2], dtype=np.float64)
     if world is not None:
         driver_settings = world.settings.driver
     elif robot.place_task and address is None:
-        driver_settings = robot.driver.facing(pose[:2], goal, task_centre(task_problem, robot, pose))
+        driver_settings = placed_driver(task_problem, robot, pose)
     else:
         driver_settings = robot.driver
-    area, reach = robot_area(task_problem, robot, driver_settings, pose, pusher)
-    problem = robot_problem(task_problem, area, reach)
-    pusher = reachable_pusher_start(shape, pose, pusher, reach)
-    safety = replace(robot.safety, workspace=reach)
-    if safety.reach is None:
-        safety = replace(safety, reach=driver_settings.reach_in_table())
+    problem, pusher = arm_problem(task_problem, robot, driver_settings, pose, pusher)
+    safety = arm_safety(problem, robot, driver_settings)
     T = settings.mppi.control_period
     with ExitStack() as stack:
         if world is not None:
@@ -163,7 +159,7 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
         else:
             world, poses, realtime = None, sim, True
         if world is not None:
-            sensor = robot_sensor(sensor, world, (pose[:2] + goal) / 2)
+            sensor = robot_sensor(sensor, world, (pose[:2] + np.asarray(problem.goal[:2])) / 2)
         if driver is None:
             driver = FrankyDriver(address, driver_settings, realtime=realtime)
             stack.callback(driver.close)
@@ -187,7 +183,89 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
         episode = make_episode(problem, condition, result, 1, plant="franka-sim" if world is not None else "franka",
                                sensor=sensor, control_period=T, method=method)
         report = robot_report(episode, plant, guarded.last, world, T, safety, shape.pusher_radius)
+        report["way_room_m"] = round(way_room(task_problem, robot, driver_settings, pose), 4)
     return episode, report
+
+
+def placed_driver(problem: Problem, robot: RobotSettings, pose: object) -> DriverSettings:
+    """``robot.driver`` with the table frame placed for an episode of ``problem`` that starts at ``pose``: the
+    task across the robot's front (:meth:`DriverSettings.facing`, at :func:`task_centre`)."""
+    return robot.driver.facing(np.asarray(pose)[:2], np.asarray(problem.goal[:2]), task_centre(problem, robot, pose))
+
+
+def arm_problem(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object,
+                pusher: object) -> tuple[Problem, np.ndarray]:
+    """The problem the planner solves on the arm, and the pusher's start: ``problem`` bounded by the arm's
+    reach (:func:`robot_area`, :func:`robot_problem`) for an episode that starts with the object at ``pose``
+    and the pusher at ``pusher``, which moves to where the arm reaches (:func:`reachable_pusher_start`)."""
+    area, reach = robot_area(problem, robot, driver, pose, pusher)
+    return (robot_problem(problem, area, reach),
+            reachable_pusher_start(problem.shape, np.asarray(pose, dtype=np.float64), np.asarray(pusher), reach))
+
+
+def arm_safety(problem: Problem, robot: RobotSettings, driver: DriverSettings) -> SafetySettings:
+    """The safety filter's settings on the arm for ``problem`` (:func:`arm_problem`'s): ``robot.safety`` with the
+    pusher's bound as its workspace, and the arm's reach (``driver``'s) unless ``robot.safety`` sets one."""
+    safety = replace(robot.safety, workspace=problem.pusher_workspace)
+    return safety if safety.reach is not None else replace(safety, reach=driver.reach_in_table())
+
+
+def run_arm_problem(task: Task, shape: Shape, *, params: str | object = "unknown", method: str | Method = "mppi-ukf",
+                    seed: int = 0, settings: ControllerSettings | None = None, sensor: Any = None,
+                    robot: RobotSettings | None = None, plant: str = "physics", max_steps: int = MAX_STEPS,
+                    filtered: bool = False, progress: bool = False) -> tuple[Episode, dict]:
+    """One episode of the problem the planner solves on the simulated robot (placed and bounded as
+    :func:`run_robot_episode` places and bounds it) on ``plant`` without the arm: the pusher moves as
+    commanded, with no robot clock, and with no frame guard or safety filter unless ``filtered`` (then the
+    robot's own, :class:`GuardedController` with :func:`arm_safety`, the pusher's position carried from the
+    frames). What fails here is the planner's in the arm's band; what fails only on the robot is the arm's
+    (docs/robot.md#the-arms-problem-without-the-arm).
+
+    Returns:
+        the :class:`dexpush.experiments.records.Episode` and ``{"way_room_m": ...}`` (:func:`way_room`).
+    """
+    robot = robot or RobotSettings()
+    settings = settings or ControllerSettings()
+    method = get_method(method)
+    task_problem = task.problem(shape, settings.weights, seed=seed)
+    pose, pusher = task.trial_start(shape, seed)
+    driver = placed_driver(task_problem, robot, pose)
+    problem, pusher = arm_problem(task_problem, robot, driver, pose, pusher)
+    runs = method
+    if filtered:
+        safety, T = arm_safety(problem, robot, driver), settings.mppi.control_period
+        runs = Guarded(method, lambda c: GuardedController(
+            c, T, safety, problem.obstacles, shape.pusher_radius, None if robot.guard is None else replace(robot.guard),
+            frame_timeout_s=robot.frame_timeout_s, polygons=problem.polygons))
+    result = run_trial(problem, lambda _: (pose, pusher), trial_spec(params, method, seed), runs, plant, sensor,
+                       settings, max_steps, progress, desc=f"task {task.key} {shape.name} in the arm's band")
+    condition = Condition(task.key, shape.name, params if isinstance(params, str) else "custom", method.name)
+    episode = make_episode(problem, condition, result, 1, plant=plant, sensor=sensor,
+                           control_period=settings.mppi.control_period, method=method)
+    return episode, {"way_room_m": round(way_room(task_problem, robot, driver, pose), 4)}
+
+
+def way_room(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object, poses: int = 21) -> float:
+    """The room (m) the straight way leaves the object in the arm's band: the least clearance of the footprint,
+    carried from ``pose`` to the goal in a straight line while it turns at a steady rate (``poses`` poses, the
+    ends included), to the band :func:`robot_area` bounds the object by (the circle a pusher's width and
+    ``robot.object_room`` inside ``robot.reach_margin`` inside r_max, and the line as far beyond r_min), with
+    the table frame placed by ``driver``. Below zero the way does not fit: the object must leave the straight
+    line, or the line be eased, where the pusher then has no room behind it
+    (docs/robot.md#the-arms-problem-without-the-arm). Obstacles and the task's own walls are not counted."""
+    pose = np.asarray(pose, dtype=np.float64)
+    goal = np.asarray(problem.goal, dtype=np.float64)
+    t = np.linspace(0.0, 1.0, poses)[:, None]
+    way = np.c_[pose[:2] + t * (goal[:2] - pose[:2]), pose[2] + t[:, 0] * wrap_angle(goal[2] - pose[2])]
+    points = np.concatenate([np.concatenate(problem.shape.footprint_world(w)) for w in way])
+    bx, by, r_min, r_max = driver.reach_in_table()
+    base = np.array([bx, by])
+    u = (pose[:2] + goal[:2]) / 2 - base
+    u = u / np.linalg.norm(u) if np.linalg.norm(u) > 1e-9 else np.array([1.0, 0.0])
+    inset = robot.reach_margin + 2 * problem.shape.pusher_radius + robot.object_room
+    outward = r_max - inset - np.linalg.norm(points - base, axis=1)
+    inward = (points - base) @ u - (r_min + inset)
+    return float(min(outward.min(), inward.min()))
 
 
 def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object,
