@@ -59,6 +59,14 @@ def reach_pair(text: str) -> tuple[float, float]:
     return r_min, r_max
 
 
+def setup_of(record: dict) -> dict:
+    """What a results folder must hold alike: the plant, whether the safety filter was on and the arm's reach
+    (records written before these keys were the robot's own, with the filter on and the default reach)."""
+    filtered = record.get("filtered", record["plant"] != "physics")
+    return {"plant": record["plant"], "filter": "on" if filtered else "off",
+            "reach": tuple(record.get("reach", RobotSettings().driver.reach))}
+
+
 def row(records: list[dict]) -> dict:
     ok = [r for r in records if r["success"]]
     rob = [r["robot"] for r in records]
@@ -136,21 +144,17 @@ def main() -> None:
     records = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
     if args.with_filter and not args.without_arm:
         raise SystemExit("error: --with-filter goes with --without-arm (on the robot the filter is always on)")
-    plant = "physics" if args.without_arm else "franka-sim"
-    if any(r["plant"] != plant for r in records):
-        raise SystemExit(f"error: {path} holds episodes of another plant than {plant}: use another --out")
-    filtered = args.with_filter or not args.without_arm
-    if any(r.get("filtered", r["plant"] != "physics") != filtered for r in records):
-        raise SystemExit(f"error: {path} holds episodes {'without' if filtered else 'with'} the safety filter: "
-                         "use another --out")
-    done = {(r["task"], r["shape"], r["seed"]) for r in records}
-    write_table = arm_free_table if args.without_arm else table
     robot = RobotSettings()
     if args.reach is not None:
         robot = dataclasses.replace(robot, driver=dataclasses.replace(robot.driver, reach=args.reach))
-    if any(tuple(r.get("reach", RobotSettings().driver.reach)) != robot.driver.reach for r in records):
-        raise SystemExit(f"error: {path} holds episodes with another reach than {robot.driver.reach}: "
-                         "use another --out")
+    setup = {"plant": "physics" if args.without_arm else "franka-sim",
+             "filter": "on" if args.with_filter or not args.without_arm else "off", "reach": robot.driver.reach}
+    other = sorted({k for r in records for k, v in setup_of(r).items() if v != setup[k]})
+    if other:
+        raise SystemExit(f"error: {path} holds episodes with another {' and '.join(other)} than this run's "
+                         f"({', '.join(f'{k} {setup[k]}' for k in other)}): use another --out")
+    done = {(r["task"], r["shape"], r["seed"]) for r in records}
+    write_table = arm_free_table if args.without_arm else table
     sensor = RenderSettings(setup=args.camera_setup) if args.camera == "rendered" else SensorSettings.realistic(seed=0)
     for shape_name in args.shapes.split(","):
         shape = make_shape(shape_name)
@@ -172,7 +176,7 @@ def main() -> None:
                 rec = {**dataclasses.asdict(episode.record), "shape": shape_name, **side,
                        "spread_cap": settings.mppi.spread_cap, "guidance_turn_m": settings.weights.guidance_turn_m,
                        "guidance_goal_heading": settings.weights.guidance_goal_heading,
-                       "reach": list(robot.driver.reach), "filtered": filtered,
+                       "reach": list(robot.driver.reach), "filtered": setup["filter"] == "on",
                        "wall_s": round(time.perf_counter() - t0, 1)}
                 with open(path, "a") as fh:
                     fh.write(json.dumps(rec) + "\n")

@@ -262,10 +262,10 @@ def test_the_robot_benchmark_runs_the_arms_problem_without_the_arm(tmp_path) -> 
     assert rec["plant"] == "physics" and rec["steps"] == 20 and "robot" not in rec
     assert rec["way_room_m"] < 0 and rec["reach"] == [0.36, 0.8]
     assert "| I | tee | 0/1 |" in (tmp_path / "table.md").read_text()
-    for extra, message in (([], "another plant than franka-sim"), (["--without-arm", "--reach", "0.3,0.9"],
-                                                                     "another reach"),
+    for extra, message in (([], "another filter and plant than this run's (filter on, plant franka-sim)"),
+                           (["--without-arm", "--reach", "0.3,0.9"], "another reach than this run's (reach (0.3, 0.9)"),
                            (["--reach", "0.5,0.4"], "expected 0 <= R_MIN < R_MAX"),
                            (["--with-filter"], "--with-filter goes with --without-arm"),
-                           (["--without-arm", "--with-filter"], "without the safety filter")):
+                           (["--without-arm", "--with-filter"], "another filter than this run's (filter on)")):
         proc = subprocess.run([*base, *extra], capture_output=True, text=True, timeout=120)
         assert proc.returncode != 0 and message in proc.stderr and "Traceback" not in proc.stderr
