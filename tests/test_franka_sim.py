@@ -262,6 +262,12 @@ def test_the_robot_benchmark_runs_the_arms_problem_without_the_arm(tmp_path) -> 
     assert rec["plant"] == "physics" and rec["steps"] == 20 and "robot" not in rec
     assert rec["way_room_m"] < 0 and rec["reach"] == [0.36, 0.8]
     assert "| I | tee | 0/1 |" in (tmp_path / "table.md").read_text()
+    filtered = tmp_path / "filtered"                                 # the robot's guard and filter on the bare plant
+    proc = subprocess.run([*base[:3], str(filtered), *base[4:], "--max-steps", "20", "--without-arm", "--with-filter"],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    (rec,) = [json.loads(line) for line in (filtered / "records.jsonl").read_text().splitlines()]
+    assert rec["plant"] == "physics" and rec["filtered"] is True and rec["steps"] == 20
     for extra, message in (([], "another filter and plant than this run's (filter on, plant franka-sim)"),
                            (["--without-arm", "--reach", "0.3,0.9"], "another reach than this run's (reach (0.3, 0.9)"),
                            (["--reach", "0.5,0.4"], "expected 0 <= R_MIN < R_MAX"),

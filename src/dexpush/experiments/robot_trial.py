@@ -164,12 +164,8 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
             driver = FrankyDriver(address, driver_settings, realtime=realtime)
             stack.callback(driver.close)
         plant = stack.enter_context(RobotPlant(driver, poses, deadline_s=robot.deadline_s, watchdog_s=robot.watchdog_s))
-        guard = None if robot.guard is None else replace(robot.guard)
-
         def make(controller: Any) -> GuardedController:
-            g = GuardedController(controller, T, safety, problem.obstacles, shape.pusher_radius, guard,
-                                  position=lambda: driver.tip()[:2], frame_timeout_s=robot.frame_timeout_s,
-                                  polygons=problem.polygons)
+            g = guarded_controller(controller, problem, robot, safety, T, position=lambda: driver.tip()[:2])
             if on_step is not None:
                 g.on_act = lambda k: on_step(k, plant, world, g)
             return g
@@ -210,6 +206,16 @@ def arm_safety(problem: Problem, robot: RobotSettings, driver: DriverSettings) -
     return safety if safety.reach is not None else replace(safety, reach=driver.reach_in_table())
 
 
+def guarded_controller(controller: Any, problem: Problem, robot: RobotSettings, safety: SafetySettings,
+                       control_period: float, position: Any = None) -> GuardedController:
+    """``controller`` behind a fresh copy of ``robot``'s frame guard and the safety filter ``safety``, kept off
+    ``problem``'s obstacles; ``position`` reads the pusher tip (None: carried from the frames)."""
+    guard = None if robot.guard is None else replace(robot.guard)
+    return GuardedController(controller, control_period, safety, problem.obstacles, problem.shape.pusher_radius,
+                             guard, position=position, frame_timeout_s=robot.frame_timeout_s,
+                             polygons=problem.polygons)
+
+
 def run_arm_problem(task: Task, shape: Shape, *, params: str | object = "unknown", method: str | Method = "mppi-ukf",
                     seed: int = 0, settings: ControllerSettings | None = None, sensor: Any = None,
                     robot: RobotSettings | None = None, plant: str = "physics", max_steps: int = MAX_STEPS,
@@ -234,9 +240,7 @@ def run_arm_problem(task: Task, shape: Shape, *, params: str | object = "unknown
     runs = method
     if filtered:
         safety, T = arm_safety(problem, robot, driver), settings.mppi.control_period
-        runs = Guarded(method, lambda c: GuardedController(
-            c, T, safety, problem.obstacles, shape.pusher_radius, None if robot.guard is None else replace(robot.guard),
-            frame_timeout_s=robot.frame_timeout_s, polygons=problem.polygons))
+        runs = Guarded(method, lambda c: guarded_controller(c, problem, robot, safety, T))
     result = run_trial(problem, lambda _: (pose, pusher), trial_spec(params, method, seed), runs, plant, sensor,
                        settings, max_steps, progress, desc=f"task {task.key} {shape.name} in the arm's band")
     condition = Condition(task.key, shape.name, params if isinstance(params, str) else "custom", method.name)
