@@ -486,8 +486,9 @@ def test_ctrl_c_into_bench_says_how_to_resume_without_a_traceback(tmp_path) -> N
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))   # (a background job)
     # once both workers run their groups: while the parent spawns them it holds Ctrl-C off (benchmark.py), and
     # a spawn waits for the new worker to import the CLI, seconds on a loaded machine
+    # (the two workers share the pipe: one's line can land before the other's newline, two on one line)
     seen, deadline = [], time.monotonic() + 120
-    while time.monotonic() < deadline and sum("trials in" in line for line in seen) < 2 and proc.poll() is None:
+    while time.monotonic() < deadline and sum(line.count("trials in") for line in seen) < 2 and proc.poll() is None:
         seen.append(proc.stderr.readline())
     import os
 
