@@ -58,6 +58,11 @@ class RobotSettings:
     object_room: float = 0.01             #: ... and the object's footprint a pusher's width and this further (m)
     place_task: bool = True               #: the simulated robot: place the table frame for the task
 
+    def object_inset(self, pusher_radius: float) -> float:
+        """How far inside the arm's reach the object's footprint stays (m): ``reach_margin``, a pusher's width
+        (2 × ``pusher_radius``) and ``object_room``, so the pusher can get round the object."""
+        return self.reach_margin + 2 * pusher_radius + self.object_room
+
     def __post_init__(self) -> None:
         for name in ("frame_timeout_s", "watchdog_s", "deadline_s"):
             check_positive(name, getattr(self, name))
@@ -266,7 +271,7 @@ def way_room(problem: Problem, robot: RobotSettings, driver: DriverSettings, pos
     base = np.array([bx, by])
     u = (pose[:2] + goal[:2]) / 2 - base
     u = u / np.linalg.norm(u) if np.linalg.norm(u) > 1e-9 else np.array([1.0, 0.0])
-    inset = robot.reach_margin + 2 * problem.shape.pusher_radius + robot.object_room
+    inset = robot.object_inset(problem.shape.pusher_radius)
     outward = r_max - inset - np.linalg.norm(points - base, axis=1)
     inward = (points - base) @ u - (r_min + inset)
     return float(min(outward.min(), inward.min()))
@@ -302,7 +307,7 @@ def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, p
         free = halfplane_corners(lines)
     middle = (pose[:2] + goal[:2]) / 2
     ends = np.concatenate([*problem.shape.footprint_world(pose), *problem.shape.footprint_world(goal)])
-    inset = robot.reach_margin + 2 * problem.shape.pusher_radius + robot.object_room
+    inset = robot.object_inset(problem.shape.pusher_radius)
     ease = problem.weights.obstacle_margin_m + 0.005      # a start or goal never inside the cost's margin
     for sides in (16, 12, 8):                 # the reach's polygon with as many sides as a workspace may have
         rows = driver.reach_halfplanes(middle, robot.reach_margin, sides)
@@ -349,7 +354,7 @@ def task_centre(problem: Problem, robot: RobotSettings, pose: object,
     goal = np.asarray(problem.goal, dtype=np.float64)
     ends = np.concatenate([*problem.shape.footprint_world(pose), *problem.shape.footprint_world(goal)])
     discs = np.asarray(problem.obstacles, dtype=np.float64)
-    inset = robot.reach_margin + 2 * problem.shape.pusher_radius + robot.object_room
+    inset = robot.object_inset(problem.shape.pusher_radius)
     r_min, r_max = robot.driver.reach
     best, best_gap = None, -np.inf
     for c in np.arange(r_min, r_max, step):
