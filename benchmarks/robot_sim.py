@@ -88,16 +88,17 @@ def arm_free_table(records: list[dict]) -> str:
     """The table of ``--without-arm`` records: no robot side, the failures' distances to the goal instead."""
     keys = sorted({(r["task"], r["shape"]) for r in records})
     lines = ["| task | shape | success | time to goal (s, median) | touches | failures end (cm from the goal) | "
-             "straight way's room in the band (cm, median) |", "|" + "---|" * 7]
+             "straight way's room in the band (cm, median) | bent way's room (cm, median) |", "|" + "---|" * 8]
     for task, shape in keys:
         rs = [x for x in records if (x["task"], x["shape"]) == (task, shape)]
         ok = [x["time_s"] for x in rs if x["success"]]
         ends = ", ".join(f"{100 * x['final_error_m']:.1f}" for x in sorted(rs, key=lambda x: x["final_error_m"])
                          if not x["success"]) or "–"
-        room = [x["way_room_m"] for x in rs if "way_room_m" in x]
+        room, bent = ([x[k] for x in rs if k in x] for k in ("way_room_m", "bent_way_room_m"))
         lines.append(f"| {task} | {shape} | {len(ok)}/{len(rs)} | {np.median(ok) if ok else float('nan'):.1f} | "
                      f"{sum(x['collisions'] > 0 for x in rs)} | {ends} | "
-                     f"{100 * np.median(room) if room else float('nan'):.1f} |")
+                     f"{100 * np.median(room) if room else float('nan'):.1f} | "
+                     f"{100 * np.median(bent) if bent else float('nan'):.1f} |")
     return "\n".join(lines) + "\n"
 
 

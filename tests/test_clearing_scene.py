@@ -58,7 +58,7 @@ def test_on_the_arm_the_plate_may_cross_the_pushing_edge_and_the_fingers_may_not
     edge = scene.table[2]
     assert np.allclose(frames.to_base([edge, 0.0]), [scene.edge_m, 0.0])   # the edge faces the robot
     pose, pusher = task.trial_start(shape, 0)
-    held, reach = robot_area(problem, RobotSettings(place_task=False, driver=frames), frames, pose, pusher)
+    held, reach, _ = robot_area(problem, RobotSettings(place_task=False, driver=frames), frames, pose, pusher)
     assert max(x for x, _ in held) > edge + 0.06                      # past the edge by more than the goal
     assert max(x for x, _ in reach) <= edge + 1e-9                    # the fingers stay on the table
     goal = np.asarray(problem.goal)                                    # the region's nominal pose lies in the area

@@ -151,6 +151,38 @@ def test_the_object_and_pusher_workspaces_bound_each_alone() -> None:
     assert set(push.with_weights(w).pusher_workspace) == set(push.pusher_workspace)
 
 
+@settings(max_examples=25, deadline=None)
+@given(st.floats(-0.4, 0.4), st.floats(-0.4, 0.4), st.floats(-np.pi, np.pi), st.floats(0.0, 2 * np.pi))
+def test_a_keep_out_disc_charges_what_a_disc_obstacle_would_and_is_no_touch(x: float, y: float, th: float,
+                                                                           phi: float) -> None:
+    """A keep-out disc (c, r_o, r_p) gives the footprint the gap a disc obstacle of radius r_o at c gives it, and
+    the pusher the gap of a disc of radius r_p (exact, inside the footprint too), in the world's and the
+    controller's frames; the judge leaves it out (no touch), and the guidance goes round it."""
+    w = CostWeights()
+    centre, r_o, r_p = (0.05, -0.02), 0.12, 0.05
+    pusher = (x + 0.15 * np.cos(phi), y + 0.15 * np.sin(phi))
+    state = np.array([[x, y, th, *pusher]], np.float32)
+    keep = Problem(RECT, (0.6, 0.0, 0.0), weights=w, keep_out=((*centre, r_o, r_p),))
+    body = Problem(RECT, (0.6, 0.0, 0.0), obstacles=((*centre, r_o),), weights=CostWeights(guidance=False))
+    tip = Problem(RECT, (0.6, 0.0, 0.0), obstacles=((*centre, r_p),), weights=CostWeights(guidance=False))
+    from dexpush.problem.obstacles import bound_gaps
+    (gap_body, gap_pusher), = list(bound_gaps(state, keep.scene))
+    assert abs(float(gap_body[0]) - float(body.clearance(np.c_[state[:, :3], [[9.0, 9.0]]])[0])) < 1e-5
+    assert abs(float(gap_pusher[0]) - float(tip.clearance(np.c_[[[9.0, 9.0, 0.0]], state[:, 3:]])[0])) < 1e-5
+    local = state - np.array([[0.6, 0.0, 0.0, 0.6, 0.0]], np.float32)
+    (local_body, _), = list(bound_gaps(local, keep.local_scene))
+    assert abs(float(local_body[0]) - float(gap_body[0])) < 1e-5
+    assert not keep.collides(state)[0] and keep.clearance(state)[0] == np.inf
+    assert keep.guide is not None and not keep.guide.connects(centre) and keep.guide.connects((0.0, 0.35))
+    assert keep.with_weights(w).keep_out == keep.keep_out
+
+
+@pytest.mark.parametrize("bad", [((0.0, 0.0, 0.1),), ((0.0, 0.0, -0.1, 0.1),), ((np.nan, 0.0, 0.1, 0.1),)])
+def test_a_bad_keep_out_disc_is_refused_in_one_line(bad: tuple) -> None:
+    with pytest.raises(ValueError, match="keep_out must be"):
+        Problem(RECT, (0.6, 0.0, 0.0), keep_out=bad)
+
+
 # ---------------------------------------------------------------- guidance
 @pytest.mark.parametrize(("turn_m", "goal_heading"), [(None, True), (0.1, False), (0.1, True)])
 def test_cost_to_go_in_the_open_is_the_straight_distance_and_the_turn_to_the_goal(turn_m: float | None,

@@ -19,16 +19,21 @@ from dexpush.experiments.methods import Method, get_method
 from dexpush.experiments.records import Condition, Episode, make_episode
 from dexpush.experiments.runner import run_trial, trial_spec
 from dexpush.experiments.scenarios import MAX_STEPS, Task
+from dexpush.model.polygons import distance_to_polygons
 from dexpush.model.shape import Shape
 from dexpush.problem.problem import Problem
 from dexpush.problem.regions import MAX_POLYGON_CORNERS, clip_convex, halfplane_corners, workspace_halfplanes
+from dexpush.problem.scene import JUDGE_PIECE_CORNERS, footprint_pieces
 from dexpush.robot.driver import DriverSettings, RobotPlant
 from dexpush.robot.guarded import FrameGuard, GuardedController
 from dexpush.robot.safety import SafetySettings
 
-__all__ = ["EXIT_TOLERANCE_M", "Guarded", "RobotSettings", "arm_problem", "arm_safety", "placed_driver",
-           "reachable_pusher_start", "robot_area", "robot_problem", "robot_sensor", "run_arm_problem",
-           "run_robot_episode", "task_centre", "task_workspace", "way_room"]
+__all__ = ["BENDS_M", "EXIT_TOLERANCE_M", "Guarded", "RobotSettings", "arm_problem", "arm_safety", "bent_way_room",
+           "placed_driver", "reachable_pusher_start", "robot_area", "robot_problem", "robot_sensor", "room_record",
+           "run_arm_problem", "run_robot_episode", "task_centre", "task_workspace", "way_room"]
+
+#: the bends (m, away from the base at the way's middle) :func:`task_centre` tries for a way across the arm's front
+BENDS_M = np.arange(0.0, 0.201, 0.01)
 
 #: a tip beyond the workspace by more than this (m) counts as a workspace exit (the arm's tracking
 #: error at the boundary, well under a millimetre, does not)
@@ -184,7 +189,7 @@ def run_robot_episode(task: Task, shape: Shape, *, params: str | object = "unkno
         episode = make_episode(problem, condition, result, 1, plant="franka-sim" if world is not None else "franka",
                                sensor=sensor, control_period=T, method=method)
         report = robot_report(episode, plant, guarded.last, world, T, safety, shape.pusher_radius)
-        report["way_room_m"] = round(way_room(task_problem, robot, driver_settings, pose), 4)
+        report.update(room_record(task_problem, robot, driver_settings, pose))
     return episode, report
 
 
@@ -199,9 +204,10 @@ def arm_problem(problem: Problem, robot: RobotSettings, driver: DriverSettings, 
     """The problem the planner solves on the arm, and the pusher's start: ``problem`` bounded by the arm's
     reach (:func:`robot_area`, :func:`robot_problem`) for an episode that starts with the object at ``pose``
     and the pusher at ``pusher``, which moves to where the arm reaches (:func:`reachable_pusher_start`)."""
-    area, reach = robot_area(problem, robot, driver, pose, pusher)
-    return (robot_problem(problem, area, reach),
-            reachable_pusher_start(problem.shape, np.asarray(pose, dtype=np.float64), np.asarray(pusher), reach))
+    area, reach, keep_out = robot_area(problem, robot, driver, pose, pusher)
+    return (robot_problem(problem, area, reach, keep_out),
+            reachable_pusher_start(problem.shape, np.asarray(pose, dtype=np.float64), np.asarray(pusher), reach,
+                                   keep_out))
 
 
 def arm_safety(problem: Problem, robot: RobotSettings, driver: DriverSettings) -> SafetySettings:
@@ -233,7 +239,7 @@ def run_arm_problem(task: Task, shape: Shape, *, params: str | object = "unknown
     (docs/robot.md#the-arms-problem-without-the-arm).
 
     Returns:
-        the :class:`dexpush.experiments.records.Episode` and ``{"way_room_m": ...}`` (:func:`way_room`).
+        the :class:`dexpush.experiments.records.Episode` and the way's room (:func:`room_record`).
     """
     robot = robot or RobotSettings()
     settings = settings or ControllerSettings()
@@ -251,46 +257,82 @@ def run_arm_problem(task: Task, shape: Shape, *, params: str | object = "unknown
     condition = Condition(task.key, shape.name, params if isinstance(params, str) else "custom", method.name)
     episode = make_episode(problem, condition, result, 1, plant=plant, sensor=sensor,
                            control_period=settings.mppi.control_period, method=method)
-    return episode, {"way_room_m": round(way_room(task_problem, robot, driver, pose), 4)}
+    return episode, room_record(task_problem, robot, driver, pose)
 
 
-def way_room(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object, poses: int = 21) -> float:
-    """The room (m) the straight way leaves the object in the arm's band: the least clearance of the footprint,
-    carried from ``pose`` to the goal in a straight line while it turns at a steady rate (``poses`` poses, the
-    ends included), to the band :func:`robot_area` bounds the object by (the circle a pusher's width and
-    ``robot.object_room`` inside ``robot.reach_margin`` inside r_max, and the line as far beyond r_min), with
-    the table frame placed by ``driver``. Below zero the way does not fit: the object must leave the straight
-    line, or the line be eased, where the pusher then has no room behind it
-    (docs/robot.md#the-arms-problem-without-the-arm). Obstacles and the task's own walls are not counted."""
+def way_room(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object, poses: int = 21,
+             bend: float = 0.0) -> float:
+    """The room (m) a way leaves the object in the arm's band: the least clearance of the footprint, carried from
+    ``pose`` to the goal while it turns at a steady rate (``poses`` poses, the ends included), to the annulus
+    :func:`robot_area` bounds the object by (:meth:`RobotSettings.object_inset` inside r_max and beyond r_min),
+    with the table frame placed by ``driver``. The way is straight, or with ``bend`` (m) a parabola that
+    leaves the straight line by that much at its middle, away from the base. Below zero the way does not fit:
+    the object must take another, or leave the band where the pusher then has no room behind it
+    (docs/robot.md#the-band-is-an-annulus). Obstacles and the task's own walls are not counted."""
+    bx, by, r_min, r_max = driver.reach_in_table()
+    return float(_way_rooms(problem, robot, np.array([bx, by]), (r_min, r_max), pose, np.array([bend]), poses)[0])
+
+
+def bent_way_room(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object) -> tuple[float, float]:
+    """The most room (m) :func:`way_room` finds over the bends :data:`BENDS_M`, and that bend (m)."""
+    bx, by, r_min, r_max = driver.reach_in_table()
+    rooms = _way_rooms(problem, robot, np.array([bx, by]), (r_min, r_max), pose, BENDS_M)
+    return float(rooms.max()), float(BENDS_M[rooms.argmax()])
+
+
+def room_record(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object) -> dict[str, float]:
+    """What a record keeps of the way's room in the arm's band (m): straight (``way_room_m``) and bent round the
+    base as far as helps (``bent_way_room_m``, at ``bend_m``)."""
+    room, bend = bent_way_room(problem, robot, driver, pose)
+    return {"way_room_m": round(way_room(problem, robot, driver, pose), 4), "bent_way_room_m": round(room, 4),
+            "bend_m": round(bend, 3)}
+
+
+def _way_rooms(problem: Problem, robot: RobotSettings, base: np.ndarray, reach: tuple[float, float], pose: object,
+               bends: np.ndarray, poses: int = 21) -> np.ndarray:
+    """:func:`way_room` for each of ``bends`` (B,), the base at ``base`` (table frame) and the reach (r_min, r_max):
+    the footprint's farthest corner against the outer circle, its nearest point (on an edge) against the inner
+    (the footprint as its convex pieces, a long outline circumscribed by one of 64 corners: never more room)."""
     pose = np.asarray(pose, dtype=np.float64)
     goal = np.asarray(problem.goal, dtype=np.float64)
-    t = np.linspace(0.0, 1.0, poses)[:, None]
-    way = np.c_[pose[:2] + t * (goal[:2] - pose[:2]), pose[2] + t[:, 0] * wrap_angle(goal[2] - pose[2])]
-    points = np.concatenate([np.concatenate(problem.shape.footprint_world(w)) for w in way])
-    bx, by, r_min, r_max = driver.reach_in_table()
-    base = np.array([bx, by])
+    t = np.linspace(0.0, 1.0, poses)
     u = (pose[:2] + goal[:2]) / 2 - base
     u = u / np.linalg.norm(u) if np.linalg.norm(u) > 1e-9 else np.array([1.0, 0.0])
+    centres = (pose[:2] + t[:, None] * (goal[:2] - pose[:2]))[None] + (4 * t * (1 - t))[None, :, None] \
+        * np.asarray(bends, dtype=np.float64)[:, None, None] * u                          # (B, poses, 2)
+    turn = pose[2] + t * wrap_angle(goal[2] - pose[2])
     inset = robot.object_inset(problem.shape.pusher_radius)
-    outward = r_max - inset - np.linalg.norm(points - base, axis=1)
-    inward = (points - base) @ u - (r_min + inset)
-    return float(min(outward.min(), inward.min()))
+    outward, inward = np.inf, np.inf
+    for polygon in footprint_pieces(problem.shape, JUDGE_PIECE_CORNERS):     # the ellipse's 64-gon round it
+        corners = rotate(polygon[None], turn[:, None])[None] + centres[:, :, None] - base     # (B, poses, n, 2)
+        outward = np.minimum(outward, reach[1] - inset - np.linalg.norm(corners, axis=-1).max(-1))
+        edge = np.roll(corners, -1, axis=-2) - corners
+        along = np.clip(-np.sum(corners * edge, -1) / np.sum(edge * edge, -1), 0.0, 1.0)
+        near = np.linalg.norm(corners + along[..., None] * edge, axis=-1).min(-1)
+        crosses = (corners[..., 1] > 0) != (corners[..., 1] + edge[..., 1] > 0)      # the base inside: even-odd
+        left = (corners[..., 0] * edge[..., 1] - corners[..., 1] * edge[..., 0]) * np.sign(edge[..., 1]) > 0
+        inside = np.sum(crosses & left, -1) % 2 == 1
+        inward = np.minimum(inward, np.where(inside, -near, near) - (reach[0] + inset))
+    return np.minimum(outward, inward).min(-1)
 
 
 def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object,
-               pusher: object) -> tuple[tuple, tuple]:
-    """Where the object may go on the robot, and where the pusher may go (each its corners, table frame), for an
-    episode that starts with the object at ``pose`` and the pusher at ``pusher``.
+               pusher: object) -> tuple[tuple, tuple, tuple]:
+    """Where the object may go on the robot and where the pusher may go (each its corners, table frame), and the
+    keep-out disc round the arm's base (:attr:`Problem.keep_out`), for an episode that starts with the object
+    at ``pose`` and the pusher at ``pusher``.
 
     The area: the task's workspace (or, without one, the box round start, pusher and goal grown by
     ``robot.workspace_margin``), within ``robot.safety``'s workspace where one is given. The pusher's: that
-    within the arm's reach, ``robot.reach_margin`` inside it (:meth:`DriverSettings.reach_halfplanes`, on the
-    side of the inner circle where the middle of start and goal lies). The object's footprint stays a
-    pusher's width and ``robot.object_room`` further inside, where the pusher can get round it (an object
-    pushed where the pusher cannot follow cannot be pushed back; its outer lines touch the circle, where the
-    pusher's are inscribed in theirs), each line eased as far as the start's and the goal's footprints need to
-    lie clear of the cost's margin (``obstacle_margin_m``) by 5 mm. With an overhang goal the object's area
-    reaches past that edge (its footprint crosses it there; the pusher stays on the table).
+    within the arm's outer reach, ``robot.reach_margin`` inside it (:meth:`DriverSettings.reach_halfplanes`),
+    and ``robot.reach_margin`` beyond its inner circle (the keep-out disc's r_p). The object's footprint
+    stays a pusher's width and ``robot.object_room`` further inside (:meth:`RobotSettings.object_inset`), where
+    the pusher can get round it (an object pushed where the pusher cannot follow cannot be pushed back; its
+    outer lines touch the circle, where the pusher's are inscribed in theirs), each bound eased as far as the
+    start's and the goal's footprints need to lie clear of the cost's margin (``obstacle_margin_m``) by 5 mm.
+    The band is the annulus itself: a way across the robot's front may bend round the base, where a line
+    across the inner circle would make it a chord (docs/robot.md#the-band-is-an-annulus). With an overhang goal
+    the object's area reaches past that edge (its footprint crosses it there; the pusher stays on the table).
     """
     pose = np.asarray(pose, dtype=np.float64)
     goal = np.asarray(problem.goal, dtype=np.float64)
@@ -305,14 +347,12 @@ def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, p
         lines = workspace_halfplanes(area)
         lines[np.all(np.isclose(lines, goal_rows.keep[:1, :3]), axis=1), 2] += 2 * problem.shape.bounding_radius
         free = halfplane_corners(lines)
-    middle = (pose[:2] + goal[:2]) / 2
     ends = np.concatenate([*problem.shape.footprint_world(pose), *problem.shape.footprint_world(goal)])
     inset = robot.object_inset(problem.shape.pusher_radius)
     ease = problem.weights.obstacle_margin_m + 0.005      # a start or goal never inside the cost's margin
     for sides in (16, 12, 8):                 # the reach's polygon with as many sides as a workspace may have
-        rows = driver.reach_halfplanes(middle, robot.reach_margin, sides)
-        reach = clip_convex(area, rows)
-        held = driver.reach_halfplanes(middle, inset, sides, inscribed=False)
+        reach = clip_convex(area, driver.reach_halfplanes(robot.reach_margin, sides))
+        held = driver.reach_halfplanes(inset, sides, inscribed=False)
         held[:, 2] = np.maximum(held[:, 2], np.max(ends @ held[:, :2].T, 0) + ease)
         held = clip_convex(free, held)
         if max(len(reach), len(held)) <= MAX_POLYGON_CORNERS:
@@ -320,7 +360,14 @@ def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, p
     if len(held) < 3 or len(reach) < 3:
         raise ValueError("the task lies outside the arm's reach and the workspace: nothing is left to push in "
                          "(move the task or the table frame)")
-    return tuple(map(tuple, held.tolist())), tuple(map(tuple, reach.tolist()))
+    bx, by, r_min, _ = driver.reach_in_table()
+    nearest = min(float(distance_to_polygons(np.array([bx, by]), problem.shape.footprint_world(end)))
+                  for end in (pose, goal))
+    if nearest <= ease:
+        raise ValueError("the start or the goal lies over the arm's base, inside its reach: move the task or the "
+                         "table frame")
+    keep_out = ((bx, by, min(r_min + inset, nearest - ease), r_min + robot.reach_margin),)
+    return tuple(map(tuple, held.tolist())), tuple(map(tuple, reach.tolist())), keep_out
 
 
 def robot_sensor(sensor: Any, world: Any, middle: object) -> Any:
@@ -338,55 +385,67 @@ def robot_sensor(sensor: Any, world: Any, middle: object) -> Any:
 
 def task_centre(problem: Problem, robot: RobotSettings, pose: object,
                 step: float = 0.005) -> tuple[float, float] | None:
-    """Where :meth:`DriverSettings.facing` puts the task's middle for an episode that starts at ``pose``: None (its
-    default, the middle of the reach) unless the task's obstacles are discs alone, with no walls or workspace.
+    """Where :meth:`DriverSettings.facing` puts the task's middle for an episode that starts at ``pose``, on the
+    base's x axis at a distance c from it (``step`` apart); None (its default, the middle of the reach) for a task
+    with walls or a workspace of its own, whose bounds shape the ways.
 
-    Then the work band is placed, among the distances c from the base (``step`` apart) at which the start's and
-    the goal's footprints lie within the pusher's reach a pusher's width and ``robot.object_room`` inside
-    (:func:`robot_area`'s inset), where the narrower of the ways past each obstacle is widest: for each disc the
-    wider of its two gaps, outward to the reach's circle and inward to its line, and of those the smallest,
+    With no obstacles, c gives the way the most room in the annulus :func:`robot_area` bounds the object by: the
+    largest :func:`way_room` over ways that bend round the base by 0–20 cm (:func:`bent_way_room`). A long push across
+    the front fits the FR3's band only bent (docs/robot.md#the-band-is-an-annulus).
+
+    With discs alone, c is chosen among those at which the start's and the goal's footprints lie within that
+    annulus where the narrower of the ways past each obstacle is widest: for each disc the wider of its two
+    gaps, outward to the annulus's outer circle and inward to its inner one, and of those the smallest,
     maximised over c. The arm's annulus is wide enough for a detour on one side only; the obstacle then lies
-    against the other. With walls or a workspace the task's own bounds shape the detours, and the default stands.
+    against the other.
     """
-    if not problem.obstacles or problem.polygons or problem.workspace is not None:
+    if problem.polygons or problem.workspace is not None:
         return None
+    r_min, r_max = robot.driver.reach
+    if not problem.obstacles:
+        start, goal = np.asarray(pose)[:2], np.asarray(problem.goal)[:2]
+        rooms = [(bent_way_room(problem, robot, robot.driver.facing(start, goal, (float(c), 0.0)), pose)[0],
+                  round(float(c), 4)) for c in np.arange(r_min, r_max, step)]
+        return max(rooms)[1], 0.0
     pose = np.asarray(pose, dtype=np.float64)
     goal = np.asarray(problem.goal, dtype=np.float64)
     ends = np.concatenate([*problem.shape.footprint_world(pose), *problem.shape.footprint_world(goal)])
     discs = np.asarray(problem.obstacles, dtype=np.float64)
     inset = robot.object_inset(problem.shape.pusher_radius)
-    r_min, r_max = robot.driver.reach
     best, best_gap = None, -np.inf
     for c in np.arange(r_min, r_max, step):
         bx, by, _, _ = robot.driver.facing(pose[:2], goal[:2], (float(c), 0.0)).reach_in_table()
         base = np.array([bx, by])
-        u = (pose[:2] + goal[:2]) / 2 - base
-        u = u / np.linalg.norm(u)
-        if (np.min((ends - base) @ u) < r_min + inset
-                or np.max(np.linalg.norm(ends - base, axis=1)) > r_max - inset):
+        nearest = min(float(distance_to_polygons(base, problem.shape.footprint_world(end))) for end in (pose, goal))
+        if nearest < r_min + inset or np.max(np.linalg.norm(ends - base, axis=1)) > r_max - inset:
             continue
         outward = r_max - inset - np.linalg.norm(discs[:, :2] - base, axis=1) - discs[:, 2]
-        inward = (discs[:, :2] - base) @ u - discs[:, 2] - (r_min + inset)
+        inward = np.linalg.norm(discs[:, :2] - base, axis=1) - discs[:, 2] - (r_min + inset)
         gap = float(np.min(np.maximum(outward, inward)))
         if gap > best_gap + 1e-9:
             best, best_gap = (round(float(c), 4), 0.0), gap
     return best
 
 
-def robot_problem(problem: Problem, area: tuple, reach: tuple) -> Problem:
-    """``problem`` with the object within ``area`` and the pusher within ``reach`` (:func:`robot_area`), both
-    within the task's own workspace where it has one. Neither bound builds a cost-to-go: a task keeps the
-    guidance it has, whose way then stays within ``area`` (docs/workspaces.md#global-guidance)."""
-    return replace(problem, object_workspace=area, pusher_workspace=reach)
+def robot_problem(problem: Problem, area: tuple, reach: tuple, keep_out: tuple = ()) -> Problem:
+    """``problem`` with the object within ``area`` and the pusher within ``reach``, both out of the ``keep_out``
+    disc (:func:`robot_area`), and within the task's own workspace where it has one. The keep-out disc builds
+    a cost-to-go (:mod:`dexpush.problem.guidance`) whose way bends round the base within ``area``
+    (docs/robot.md#the-band-is-an-annulus)."""
+    return replace(problem, object_workspace=area, pusher_workspace=reach, keep_out=tuple(keep_out))
 
 
-def reachable_pusher_start(shape: Shape, pose: np.ndarray, pusher: np.ndarray, reach: tuple) -> np.ndarray:
-    """The task's pusher start when the pusher disc lies inside ``reach`` (corners); otherwise the same distance
-    outside the object's inflated contour at the azimuth nearest the task's that does (scanned in 1° steps)."""
+def reachable_pusher_start(shape: Shape, pose: np.ndarray, pusher: np.ndarray, reach: tuple,
+                           keep_out: tuple = ()) -> np.ndarray:
+    """The task's pusher start when the pusher disc lies inside ``reach`` (corners) and out of the ``keep_out``
+    discs (their r_p); otherwise the same distance outside the object's inflated contour at the azimuth nearest
+    the task's that does (scanned in 1° steps)."""
     rows = workspace_halfplanes(reach)
+    discs = np.asarray(keep_out, dtype=np.float64).reshape(-1, 4)
 
     def gap(p: np.ndarray) -> float:
-        return float(np.min(rows[:, 2] - rows[:, :2] @ p)) - shape.pusher_radius
+        out = np.linalg.norm(p - discs[:, :2], axis=1) - discs[:, 3] if len(discs) else np.full(1, np.inf)
+        return min(float(np.min(rows[:, 2] - rows[:, :2] @ p)), float(out.min())) - shape.pusher_radius
 
     if gap(pusher) >= 0:
         return pusher

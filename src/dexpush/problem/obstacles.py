@@ -212,7 +212,9 @@ def _max(a: jnp.ndarray | None, b: jnp.ndarray) -> jnp.ndarray:
 def bound_gaps(x: State, scene: Scene):
     """Per workspace half-plane n·p ≤ o, the gaps (m) of the footprint (the least o − n·v over its outline's
     corners v) and of the pusher: (footprint gap, pusher gap), each (...,); then per half-plane of the
-    object's own bounds, (footprint gap, +inf), and per half-plane of the pusher's, (+inf, pusher gap)."""
+    object's own bounds, (footprint gap, +inf), per half-plane of the pusher's, (+inf, pusher gap), and per
+    keep-out disc (centre o, radii r_o and r_p) (d(o, outline) − r_o, or −r_o with o inside the footprint;
+    ‖p_c − o‖ − r_p − pusher radius): a bound the footprint and the pusher stay out of, exact like a disc's gap."""
     xb, yb, th, xc, yc = components(x)
     s, c = fastmath.sincos(th)
     a = scene.edge_a
@@ -230,6 +232,16 @@ def bound_gaps(x: State, scene: Scene):
         nx, ny, o = scene.pusher_bounds[h, 0], scene.pusher_bounds[h, 1], scene.pusher_bounds[h, 2]
         pusher = o - nx * xc - ny * yc - scene.pusher_radius
         yield jnp.full_like(pusher, jnp.inf), pusher
+    for k in range(scene.keep_out.shape[0]):          # keep-out discs: the footprint's gap and the pusher's
+        ox, oy, r_body, r_pusher = (scene.keep_out[k, i] for i in range(4))
+        dx, dy = ox - xb, oy - yb
+        px, py = c * dx + s * dy, -s * dx + c * dy                   # the centre in {B}
+        if a.shape[0] > UNROLL_CORNERS:
+            d2, inside = _edge_distances(px[..., None], py[..., None], a, scene.edge_b)
+        else:
+            d2, inside = _outline_distance(px, py, a, scene.edge_b)
+        body = jnp.where(inside, -r_body, jnp.sqrt(d2) - r_body)
+        yield body, jnp.sqrt((xc - ox) ** 2 + (yc - oy) ** 2) - r_pusher - scene.pusher_radius
 
 
 def region_gaps(x: State, scene: Scene):

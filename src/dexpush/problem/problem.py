@@ -35,7 +35,7 @@ from dexpush.problem.goal_region import (
 from dexpush.problem.guidance import CostToGo, cost_to_go
 from dexpush.problem.obstacles import clearance_jit, collides_jit
 from dexpush.problem.regions import convex_polygon, halfplane_corners, workspace_halfplanes
-from dexpush.problem.scene import Scene, obstacle_array
+from dexpush.problem.scene import Scene, keep_out_array, obstacle_array
 from dexpush.problem.weights import CostWeights
 
 __all__ = ["COST_OUTLINE_EDGES", "COST_PIECE_CORNERS", "SUCCESS_HEADING_DEG", "SUCCESS_POSITION_M", "Problem",
@@ -79,8 +79,9 @@ class Problem:
     :mod:`dexpush.problem.regions`), and without leaving the convex ``workspace`` (its corners, or a
     rectangle (x_lo, y_lo, x_hi, y_hi); None: unbounded), the object's footprint alone also inside the
     convex ``object_workspace`` and the pusher alone inside the convex ``pusher_workspace`` (likewise; on a
-    robot: where its pusher can get round the object, and the arm's reach), at the cost of eq. (9)
-    with ``weights``;
+    robot: where its pusher can get round the object, and the arm's reach), and the footprint r_o and the
+    pusher's disc r_p clear of the centre of each ``keep_out`` disc (c_x, c_y, r_o, r_p) (on a robot: the arm's
+    inner reach round its base), at the cost of eq. (9) with ``weights``;
     success is a position error below ``tolerance_m`` and a heading error below ``tolerance_deg``.
     The goal's footprint must fit: a ``ValueError`` says which obstacle it touches.
 
@@ -95,9 +96,10 @@ class Problem:
     ``origin`` and ``local_scene`` (the same in the controller's frame, whose origin is the goal's
     position: float32 keeps its resolution wherever the world frame is), and ``judge_scene`` (the
     footprint's own edges: what :meth:`collides` and :meth:`clearance` judge a trial by; the
-    ``object_workspace`` and ``pusher_workspace`` left out: they keep the planner where a robot can push, and
-    leaving them is no touch), and ``guide`` (the cost-to-go round the obstacles,
-    :mod:`dexpush.problem.guidance`; None without polygons and workspace, or with ``weights.guidance`` off).
+    ``object_workspace``, ``pusher_workspace`` and ``keep_out`` left out: they keep the planner where a robot can
+    push, and leaving them is no touch), and ``guide`` (the cost-to-go round the obstacles,
+    :mod:`dexpush.problem.guidance`; None without polygons, workspace and keep-out discs, or with
+    ``weights.guidance`` off).
     """
 
     shape: Shape
@@ -114,6 +116,7 @@ class Problem:
     object_workspace: tuple[tuple[float, float], ...] | None = None
     pusher_workspace: tuple[tuple[float, float], ...] | None = None
     region: GoalRegion | None = None
+    keep_out: tuple[tuple[float, float, float, float], ...] = ()
     #: the region's rows in the world frame (:class:`dexpush.problem.goal_region.RegionRows`); None for a goal pose
     region_rows: RegionRows | None = field(init=False, repr=False)
     contour: Contour = field(init=False, repr=False)
@@ -134,6 +137,7 @@ class Problem:
         elif region is not None and not isinstance(region, Overhang | AtWall | PoseBox):
             raise ValueError(f"region must be an Overhang, AtWall or PoseBox, got {region!r}")
         discs = obstacle_array(self.obstacles)
+        keep_out = keep_out_array(self.keep_out)
         check_positive("tolerance_m", self.tolerance_m, "m")
         check_positive("tolerance_deg", self.tolerance_deg, "degrees")
         polys = tuple(convex_polygon(p, f"obstacle polygon {i}") for i, p in enumerate(self.polygons))
@@ -155,6 +159,7 @@ class Problem:
         put = object.__setattr__
         put(self, "goal", tuple(float(v) for v in goal))
         put(self, "obstacles", tuple(tuple(float(v) for v in d) for d in discs))
+        put(self, "keep_out", tuple(tuple(float(v) for v in d) for d in keep_out))
         put(self, "polygons", tuple(tuple((float(x), float(y)) for x, y in p) for p in polys))
         put(self, "workspace", None if corners is None else tuple((float(x), float(y)) for x, y in corners))
         for name, rows in own.items():
@@ -170,10 +175,11 @@ class Problem:
         guide = None
         # disc-only scenes keep the detour round the discs, a footprint's reach from each, alone
         # (docs/workspaces.md#discs-alone-keep-the-detour-2026-12-05)
-        if self.weights.guidance and region is None and (polys or bounds is not None):
-            # the object's own bounds (a robot's reach) bound its way too
+        if self.weights.guidance and region is None and (polys or bounds is not None or len(keep_out)):
+            # the object's own bounds (a robot's reach) and keep-out discs bound its way too
             area = [rows for rows in (bounds, object_bounds) if rows is not None]
-            guide = cost_to_go(self.shape.polygons, self.shape.bounding_radius, goal, discs, polys,
+            guide = cost_to_go(self.shape.polygons, self.shape.bounding_radius, goal,
+                               np.concatenate([discs, keep_out[:, :3]]), polys,
                                tuple(halfplane_corners(rows) for rows in area) or None,
                                self.weights.obstacle_margin_m, self.weights.guidance_cell_m,
                                self.weights.guidance_turn_m, self.weights.guidance_goal_heading)
@@ -181,7 +187,7 @@ class Problem:
         put(self, "contour", Contour.of(self.shape))
         put(self, "scene", Scene.make(self.shape, goal, discs, self.weights, COST_OUTLINE_EDGES, polys, bounds,
                                       guide, self.pad_to, COST_PIECE_CORNERS, object_bounds,
-                                      pusher_bounds, goal_rows))
+                                      pusher_bounds, goal_rows, keep_out))
         put(self, "origin", origin)
         shift = origin * [1.0, 1.0, 0.0]
         # a half-plane n·p ≤ o seen from the origin: n·(p − origin) ≤ o − n·origin
@@ -193,7 +199,8 @@ class Problem:
                                             None if guide is None else guide.shifted(origin), self.pad_to,
                                             COST_PIECE_CORNERS, seen_from_origin(object_bounds),
                                             seen_from_origin(pusher_bounds),
-                                            None if goal_rows is None else goal_rows.shifted(origin)))
+                                            None if goal_rows is None else goal_rows.shifted(origin),
+                                            keep_out - np.array([*origin[:2], 0.0, 0.0])))
         put(self, "judge_scene", Scene.make(self.shape, goal, discs, self.weights, None, polys, bounds,
                                             pad_to=self.pad_to, region=goal_rows))
         if region is None or isinstance(region, PoseBox):     # (a region's own pose is only a marker)
@@ -289,5 +296,5 @@ class Problem:
         """The same problem at the cost ``weights``."""
         return Problem(self.shape, self.goal if self.region is None else self.region, self.obstacles, weights,
                        self.tolerance_m, self.tolerance_deg, self.polygons, self.workspace, self.pad_to,
-                       self.object_workspace, self.pusher_workspace)
+                       self.object_workspace, self.pusher_workspace, keep_out=self.keep_out)
 

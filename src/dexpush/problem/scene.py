@@ -19,7 +19,8 @@ from dexpush.problem.guidance import CostToGo
 from dexpush.problem.regions import halfplanes
 from dexpush.problem.weights import CostWeights
 
-__all__ = ["INERT_M", "JUDGE_PIECE_CORNERS", "Scene", "footprint_pieces", "obstacle_array", "padded_polygons"]
+__all__ = ["INERT_M", "JUDGE_PIECE_CORNERS", "Scene", "footprint_pieces", "keep_out_array", "obstacle_array",
+           "padded_polygons"]
 
 #: the most corners of a footprint piece the polygon gaps see by default (the judge's scene): a
 #: circumscribed 64-gon lies within 0.13 mm of the ellipse's 256-gon
@@ -76,6 +77,9 @@ class Scene:
     keep_point: jnp.ndarray = None  # type: ignore[assignment]
     region_corners: jnp.ndarray = None  # type: ignore[assignment]
     heading_weight: jnp.ndarray = None  # type: ignore[assignment]
+    #: (R, 4) discs [c_x, c_y, r_object, r_pusher] the footprint keeps r_object clear of and the pusher's disc
+    #: r_pusher clear of (a robot arm's inner reach round its base); R may be 0
+    keep_out: jnp.ndarray = None  # type: ignore[assignment]
 
     @property
     def has_region(self) -> bool:
@@ -86,7 +90,7 @@ class Scene:
     def has_obstacles(self) -> bool:
         """Whether there is anything to keep clear of: a disc, a polygon or a workspace boundary."""
         return bool(self.obstacles.shape[0] or self.polygons.shape[0] or self.bounds.shape[0]
-                    or self.object_bounds.shape[0] or self.pusher_bounds.shape[0])
+                    or self.object_bounds.shape[0] or self.pusher_bounds.shape[0] or self.keep_out.shape[0])
 
     @staticmethod
     def make(shape: Shape, goal: object, obstacles: object = (), weights: CostWeights | None = None,
@@ -94,7 +98,7 @@ class Scene:
              bounds: np.ndarray | None = None, guide: CostToGo | None = None,
              pad_to: tuple[int, int] = (0, 0), max_piece_corners: int = JUDGE_PIECE_CORNERS,
              object_bounds: np.ndarray | None = None, pusher_bounds: np.ndarray | None = None,
-             region: RegionRows | None = None) -> Scene:
+             region: RegionRows | None = None, keep_out: object = ()) -> Scene:
         """The cost's view of a task; with ``max_edges``, the footprint's outline has at most that many
         edges where the footprint is convex (:meth:`dexpush.model.shape.Shape.outline_edges`), and its
         convex pieces (what the polygon gaps see) at most ``max_piece_corners`` corners.
@@ -102,10 +106,12 @@ class Scene:
         :func:`dexpush.problem.regions.convex_polygon`), ``bounds`` the workspace's half-planes
         (:func:`dexpush.problem.regions.workspace_halfplanes`), ``object_bounds`` and ``pusher_bounds`` the
         half-planes that bound the object alone (where a robot's pusher can get round it) and the pusher alone
-        (the arm's reach), ``guide`` the cost-to-go, ``region`` a goal region's rows (the goal distance is then
-        to the region, with no detour: :func:`dexpush.problem.cost.goal_distance_sq`), all in the
-        frame of ``goal``. ``pad_to`` (discs, polygons): add inert ones 1 km away up to these counts, so that
-        the problems of one family (a clutter benchmark's seeds) have arrays of one shape and share compiled code.
+        (the arm's reach), ``keep_out`` discs (c_x, c_y, r_object, r_pusher) about which the footprint stays
+        r_object and the pusher's disc r_pusher away (the arm's inner reach), ``guide`` the cost-to-go,
+        ``region`` a goal region's rows (the goal distance is then to the region, with no detour:
+        :func:`dexpush.problem.cost.goal_distance_sq`), all in the frame of ``goal``. ``pad_to`` (discs, polygons): add
+        inert ones 1 km away up to these counts, so that the problems of one family (a clutter benchmark's seeds) have
+        arrays of one shape and share compiled code.
 
         The effective r_s is max(r_s, R_max + r_s_clearance), R_max the largest radius of
         the inflated contour. Table II's r_s = 0.2 m suits the paper's objects, but the
@@ -137,6 +143,7 @@ class Scene:
         bounds = np.zeros((0, 3)) if bounds is None else np.asarray(bounds, np.float64).reshape(-1, 3)
         object_bounds, pusher_bounds = (np.zeros((0, 3)) if b is None else np.asarray(b, np.float64).reshape(-1, 3)
                                         for b in (object_bounds, pusher_bounds))
+        keep_out = keep_out_array(keep_out)
         values, lo, cell = (np.zeros((0, 0, 0)), np.zeros(2), 1.0) if guide is None else (guide.values, guide.lo,
                                                                                            guide.cell)
         f32 = partial(jnp.asarray, dtype=jnp.float32)
@@ -151,14 +158,14 @@ class Scene:
                      jnp.asarray(poly), jnp.asarray(planes), jnp.asarray(bounds), jnp.asarray(pieces),
                      jnp.asarray(piece_planes), f32(values), f32(lo), f32(cell), jnp.asarray(object_bounds),
                      jnp.asarray(pusher_bounds), jnp.asarray(reach), jnp.asarray(keep), jnp.asarray(point),
-                     jnp.asarray(corners), jnp.asarray(heading))
+                     jnp.asarray(corners), jnp.asarray(heading), jnp.asarray(keep_out))
 
 
 jax.tree_util.register_dataclass(
     Scene, data_fields=["goal", "obstacles", "edge_a", "edge_b", "r_s", "detour_radius", "margin", "polygons",
                         "polygon_planes", "bounds", "pieces", "piece_planes", "guide", "guide_lo", "guide_cell",
                         "object_bounds", "pusher_bounds", "reach", "keep", "keep_point", "region_corners",
-                        "heading_weight"],
+                        "heading_weight", "keep_out"],
     meta_fields=["pusher_radius"])
 
 
@@ -199,3 +206,15 @@ def obstacle_array(obstacles: object) -> np.ndarray:
         raise ValueError(f"obstacles must be finite discs (c_x, c_y, radius > 0), got {obstacles!r}")
     return obs
 
+
+
+def keep_out_array(keep_out: object) -> np.ndarray:
+    """Keep-out discs as a float64 (R, 4) array [c_x, c_y, r_object, r_pusher]; anything else, or a radius below
+    zero, is refused with a ``ValueError``."""
+    try:
+        k = np.asarray(keep_out, dtype=np.float64) if len(keep_out) else np.zeros((0, 4))
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"keep_out must be discs (c_x, c_y, r_object, r_pusher), got {keep_out!r}") from exc
+    if k.ndim != 2 or k.shape[1] != 4 or not np.all(np.isfinite(k)) or np.any(k[:, 2:] < 0):
+        raise ValueError(f"keep_out must be finite discs (c_x, c_y, r_object >= 0, r_pusher >= 0), got {keep_out!r}")
+    return k

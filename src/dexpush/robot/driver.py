@@ -87,21 +87,15 @@ class DriverSettings:
         b = self.to_table(np.zeros(2))
         return float(b[0]), float(b[1]), float(self.reach[0]), float(self.reach[1])
 
-    def reach_halfplanes(self, towards: object, margin: float = 0.02, sides: int = 16,
-                         inscribed: bool = True) -> np.ndarray:
-        """The reach as half-plane rows [n_x, n_y, o] (n·p ≤ o inside, table frame), a convex region for a
-        planner: the regular ``sides``-gon inscribed in the circle of radius r_max − ``margin`` about the base's
-        axis (or, not ``inscribed``, circumscribed about it: its edges touch that circle), and the line
-        ``margin`` beyond r_min across the direction from the base to ``towards`` (a table-frame point, e.g. the
-        task's middle: the side of the inner circle the work lies on)."""
-        bx, by, r_min, r_max = self.reach_in_table()
-        base = np.array([bx, by])
+    def reach_halfplanes(self, margin: float = 0.02, sides: int = 16, inscribed: bool = True) -> np.ndarray:
+        """The reach's outer circle as half-plane rows [n_x, n_y, o] (n·p ≤ o inside, table frame), a convex region
+        for a planner: the regular ``sides``-gon inscribed in the circle of radius r_max − ``margin`` about the
+        base's axis (or, not ``inscribed``, circumscribed about it: its edges touch that circle). The inner circle
+        is a keep-out disc (:attr:`dexpush.problem.problem.Problem.keep_out`)."""
+        bx, by, _, r_max = self.reach_in_table()
         ang = 2 * np.pi * np.arange(sides) / sides
         n = np.stack([np.cos(ang), np.sin(ang)], 1)
-        rows = np.c_[n, n @ base + (r_max - margin) * (np.cos(np.pi / sides) if inscribed else 1.0)]
-        u = checked_vector("towards", towards, 2) - base
-        u = u / np.linalg.norm(u) if np.linalg.norm(u) > 1e-9 else np.array([1.0, 0.0])
-        return np.vstack([rows, [-u[0], -u[1], -(u @ base) - (r_min + margin)]])
+        return np.c_[n, n @ np.array([bx, by]) + (r_max - margin) * (np.cos(np.pi / sides) if inscribed else 1.0)]
 
     def to_base(self, xy: object) -> np.ndarray:
         """Table-frame point(s) (..., 2) in the base frame."""
