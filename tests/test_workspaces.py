@@ -445,3 +445,23 @@ def test_a_turn_length_that_is_not_positive_is_one_line(bad: float) -> None:
         CostWeights(guidance_turn_m=bad)
     with pytest.raises(ValueError, match="turn_m"):
         cost_to_go(RECT.polygons, RECT.bounding_radius, np.zeros(3), np.zeros((0, 3)), (), None, 0.0, turn_m=bad)
+
+
+def test_padded_rows_and_grid_blocks_change_no_gap_and_few_shapes_compile() -> None:
+    """The scene's half-plane arrays are padded to ROW_BLOCK rows by repeating one (the pusher's gap to a
+    pentagon is the least over its own five rows) and the cost-to-go's grid to GRID_BLOCK nodes a side."""
+    from dexpush.problem.guidance import GRID_BLOCK
+    from dexpush.problem.obstacles import bound_gaps
+    from dexpush.problem.scene import ROW_BLOCK
+
+    pentagon = tuple((0.5 * np.cos(a), 0.5 * np.sin(a)) for a in np.linspace(0, 2 * np.pi, 6)[:-1])
+    p = Problem(RECT, (0.0, 0.0, 0.0), workspace=pentagon)
+    assert p.scene.bounds.shape[0] % ROW_BLOCK == 0 and p.scene.bounds.shape[0] > 5
+    rows = workspace_halfplanes(np.asarray(pentagon))
+    rng = np.random.default_rng(0)
+    tips = rng.uniform(-0.4, 0.4, (50, 2))
+    states = np.c_[np.zeros((50, 3)), tips].astype(np.float32)
+    padded = np.min([np.asarray(pusher) for _, pusher in bound_gaps(states, p.scene)], 0)
+    exact = np.min(rows[:, 2] - tips @ rows[:, :2].T, 1) - RECT.pusher_radius
+    assert np.allclose(padded, exact, atol=1e-6)
+    assert all(n % GRID_BLOCK == 0 for n in p.guide.values.shape[1:])

@@ -42,13 +42,17 @@ from scipy.sparse.csgraph import dijkstra
 from dexpush.model.polygons import inside_polygon
 from dexpush.problem.regions import point_gap
 
-__all__ = ["GRID_STRETCH", "HEADINGS", "CostToGo", "cost_to_go", "nearest_layer"]
+__all__ = ["GRID_BLOCK", "GRID_STRETCH", "HEADINGS", "CostToGo", "cost_to_go", "nearest_layer"]
 
 #: the headings tried for a free position (every 360°/HEADINGS)
 HEADINGS = 16
 #: the 16-neighbour grid's worst stretch of a straight line, interpolation included (2.75 % measured over
 #: every direction at 0.4 m; tests/test_guidance.py), rounded up
 GRID_STRETCH = 0.03
+#: the grid's node counts are rounded up to multiples of this (its far side then lies up to this many cells
+#: beyond the workspace, where no node is free), so that problems of one family (a robot's placed tasks) give V
+#: arrays of a few shapes and the planner compiles a few times rather than once per problem
+GRID_BLOCK = 8
 _MOVES = np.array([(1, 0), (0, 1), (-1, 0), (0, -1), (1, 1), (-1, 1), (-1, -1), (1, -1),
                    (2, 1), (1, 2), (-1, 2), (-2, 1), (-2, -1), (-1, -2), (1, -2), (2, -1)])
 
@@ -161,6 +165,7 @@ def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, di
         lo, hi = pts.min(0) - pad, pts.max(0) + pad
     lo = g[:2] - np.ceil((g[:2] - lo) / cell - 1e-9) * cell           # the goal is a node
     shape = np.maximum(np.ceil((hi - lo) / cell - 1e-9).astype(int) + 1, 2)
+    shape = -(-shape // GRID_BLOCK) * GRID_BLOCK          # a few grid sizes: a family of problems shares compiled code
     extra = int(np.ceil(reach / cell)) + 1                 # room for the footprint's samples beyond the grid
     ix = np.arange(-extra, shape[0] + extra) * cell + lo[0]
     iy = np.arange(-extra, shape[1] + extra) * cell + lo[1]

@@ -19,12 +19,15 @@ from dexpush.problem.guidance import CostToGo
 from dexpush.problem.regions import halfplanes
 from dexpush.problem.weights import CostWeights
 
-__all__ = ["INERT_M", "JUDGE_PIECE_CORNERS", "Scene", "footprint_pieces", "keep_out_array", "obstacle_array",
-           "padded_polygons"]
+__all__ = ["INERT_M", "JUDGE_PIECE_CORNERS", "ROW_BLOCK", "Scene", "footprint_pieces", "keep_out_array",
+           "obstacle_array", "padded_polygons", "padded_rows"]
 
 #: the most corners of a footprint piece the polygon gaps see by default (the judge's scene): a
 #: circumscribed 64-gon lies within 0.13 mm of the ellipse's 256-gon
 JUDGE_PIECE_CORNERS = 64
+
+#: half-plane arrays (workspace, the object's and the pusher's bounds) hold a multiple of this many rows
+ROW_BLOCK = 4
 
 #: where the inert obstacles of a padded scene lie (m along x and y): far beyond any margin
 INERT_M = 1000.0
@@ -140,9 +143,7 @@ class Scene:
             rho = np.minimum(obs[:, 2] + w.obstacle_margin_m + reach, np.hypot(*(g[None, :2] - obs[:, :2]).T))
         poly, planes = padded_polygons(polygons)
         pieces, piece_planes = padded_polygons(footprint_pieces(shape, max_piece_corners))
-        bounds = np.zeros((0, 3)) if bounds is None else np.asarray(bounds, np.float64).reshape(-1, 3)
-        object_bounds, pusher_bounds = (np.zeros((0, 3)) if b is None else np.asarray(b, np.float64).reshape(-1, 3)
-                                        for b in (object_bounds, pusher_bounds))
+        bounds, object_bounds, pusher_bounds = (padded_rows(b) for b in (bounds, object_bounds, pusher_bounds))
         keep_out = keep_out_array(keep_out)
         values, lo, cell = (np.zeros((0, 0, 0)), np.zeros(2), 1.0) if guide is None else (guide.values, guide.lo,
                                                                                            guide.cell)
@@ -218,3 +219,11 @@ def keep_out_array(keep_out: object) -> np.ndarray:
     if k.ndim != 2 or k.shape[1] != 4 or not np.all(np.isfinite(k)) or np.any(k[:, 2:] < 0):
         raise ValueError(f"keep_out must be finite discs (c_x, c_y, r_object >= 0, r_pusher >= 0), got {keep_out!r}")
     return k
+
+
+def padded_rows(rows: object, block: int = ROW_BLOCK) -> np.ndarray:
+    """Half-plane rows (H, 3) (None: none) padded to a multiple of ``block`` by repeating the last, which changes
+    no gap (a least over the rows), so that problems whose bounds have a few corners more or less (a robot's
+    reach clipped by a task's area) share compiled code."""
+    r = np.zeros((0, 3)) if rows is None else np.asarray(rows, np.float64).reshape(-1, 3)
+    return np.concatenate([r, np.repeat(r[-1:], -len(r) % block, 0)]) if len(r) else r
