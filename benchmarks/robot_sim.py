@@ -60,11 +60,14 @@ def reach_pair(text: str) -> tuple[float, float]:
 
 
 def setup_of(record: dict) -> dict:
-    """What a results folder must hold alike: the plant, whether the safety filter was on and the arm's reach
-    (records written before these keys were the robot's own, with the filter on and the default reach)."""
+    """What a results folder must hold alike: the plant, whether the safety filter was on, the arm's reach and the
+    object's band (records written before these keys were the robot's own, with the filter on and the default
+    reach; before the band was the annulus, docs/robot.md#the-band-is-an-annulus, they kept no bent way's room)."""
     filtered = record.get("filtered", record["plant"] != "physics")
+    annulus = "bent_way_room_m" in record or "bent_way_room_m" in record.get("robot", {})
     return {"plant": record["plant"], "filter": "on" if filtered else "off",
-            "reach": tuple(record.get("reach", RobotSettings().driver.reach))}
+            "reach": tuple(record.get("reach", RobotSettings().driver.reach)),
+            "band": "annulus" if annulus else "chord"}
 
 
 def row(records: list[dict]) -> dict:
@@ -149,7 +152,8 @@ def main() -> None:
     if args.reach is not None:
         robot = dataclasses.replace(robot, driver=dataclasses.replace(robot.driver, reach=args.reach))
     setup = {"plant": "physics" if args.without_arm else "franka-sim",
-             "filter": "on" if args.with_filter or not args.without_arm else "off", "reach": robot.driver.reach}
+             "filter": "on" if args.with_filter or not args.without_arm else "off", "reach": robot.driver.reach,
+             "band": "annulus"}
     other = sorted({k for r in records for k, v in setup_of(r).items() if v != setup[k]})
     if other:
         raise SystemExit(f"error: {path} holds episodes with another {' and '.join(other)} than this run's "

@@ -252,7 +252,7 @@ def test_the_rendered_camera_sees_the_robot_world_with_the_arm_in_it() -> None:
 
 def test_the_robot_benchmark_runs_the_arms_problem_without_the_arm(tmp_path) -> None:
     """``robot_sim.py --without-arm``: the placed, bounded problem on the physics plant, recorded with the way's
-    room; a folder of another plant or reach is refused in one line. (It needs no franky; it is the robot
+    room; a folder of another plant, reach or band is refused in one line. (It needs no franky; it is the robot
     benchmark's test, run with the robot's.)"""
     script = Path(__file__).resolve().parents[1] / "benchmarks" / "robot_sim.py"
     base = [sys.executable, str(script), "--out", str(tmp_path), "--tasks", "I", "--shapes", "tee", "--seeds", "0"]
@@ -260,7 +260,8 @@ def test_the_robot_benchmark_runs_the_arms_problem_without_the_arm(tmp_path) -> 
     assert proc.returncode == 0, proc.stderr[-2000:]
     (rec,) = [json.loads(line) for line in (tmp_path / "records.jsonl").read_text().splitlines()]
     assert rec["plant"] == "physics" and rec["steps"] == 20 and "robot" not in rec
-    assert rec["way_room_m"] < 0 and rec["reach"] == [0.36, 0.8]
+    assert rec["way_room_m"] < 0 < 0.02 < rec["bent_way_room_m"] and rec["bend_m"] >= 0.05    # it fits bent
+    assert rec["reach"] == [0.36, 0.8]
     assert "| I | tee | 0/1 |" in (tmp_path / "table.md").read_text()
     filtered = tmp_path / "filtered"                                 # the robot's guard and filter on the bare plant
     proc = subprocess.run([*base[:3], str(filtered), *base[4:], "--max-steps", "20", "--without-arm", "--with-filter"],
@@ -275,3 +276,10 @@ def test_the_robot_benchmark_runs_the_arms_problem_without_the_arm(tmp_path) -> 
                            (["--without-arm", "--with-filter"], "another filter than this run's (filter on)")):
         proc = subprocess.run([*base, *extra], capture_output=True, text=True, timeout=120)
         assert proc.returncode != 0 and message in proc.stderr and "Traceback" not in proc.stderr
+    chord = tmp_path / "chord"                           # a folder of the band before the annulus: refused too
+    chord.mkdir()
+    old = {k: v for k, v in rec.items() if k not in ("bent_way_room_m", "bend_m")}
+    (chord / "records.jsonl").write_text(json.dumps(old) + "\n")
+    proc = subprocess.run([*base[:3], str(chord), *base[4:], "--without-arm", "--with-filter"], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode != 0 and "another band than this run's (band annulus)" in proc.stderr
