@@ -291,8 +291,9 @@ def room_record(problem: Problem, robot: RobotSettings, driver: DriverSettings, 
 def _way_rooms(problem: Problem, robot: RobotSettings, base: np.ndarray, reach: tuple[float, float], pose: object,
                bends: np.ndarray, poses: int = 21) -> np.ndarray:
     """:func:`way_room` for each of ``bends`` (B,), the base at ``base`` (table frame) and the reach (r_min, r_max):
-    the footprint's farthest corner against the outer circle, its nearest point (on an edge) against the inner
-    (the footprint as its convex pieces, a long outline circumscribed by one of 64 corners: never more room)."""
+    the footprint's farthest corner against the outer circle, its nearest point against the inner (0 with the
+    base inside it), both from the base seen in each pose's frame {B} (the footprint as its convex pieces, a long
+    outline circumscribed by one of 64 corners: never more room)."""
     pose = np.asarray(pose, dtype=np.float64)
     goal = np.asarray(problem.goal, dtype=np.float64)
     t = np.linspace(0.0, 1.0, poses)
@@ -301,18 +302,12 @@ def _way_rooms(problem: Problem, robot: RobotSettings, base: np.ndarray, reach: 
     centres = (pose[:2] + t[:, None] * (goal[:2] - pose[:2]))[None] + (4 * t * (1 - t))[None, :, None] \
         * np.asarray(bends, dtype=np.float64)[:, None, None] * u                          # (B, poses, 2)
     turn = pose[2] + t * wrap_angle(goal[2] - pose[2])
+    base_in_b = rotate(base - centres, -turn)                  # (B, poses, 2): the base seen from each pose's {B}
+    pieces = footprint_pieces(problem.shape, JUDGE_PIECE_CORNERS)     # the ellipse's 64-gon round it
     inset = robot.object_inset(problem.shape.pusher_radius)
-    outward, inward = np.inf, np.inf
-    for polygon in footprint_pieces(problem.shape, JUDGE_PIECE_CORNERS):     # the ellipse's 64-gon round it
-        corners = rotate(polygon[None], turn[:, None])[None] + centres[:, :, None] - base     # (B, poses, n, 2)
-        outward = np.minimum(outward, reach[1] - inset - np.linalg.norm(corners, axis=-1).max(-1))
-        edge = np.roll(corners, -1, axis=-2) - corners
-        along = np.clip(-np.sum(corners * edge, -1) / np.sum(edge * edge, -1), 0.0, 1.0)
-        near = np.linalg.norm(corners + along[..., None] * edge, axis=-1).min(-1)
-        crosses = (corners[..., 1] > 0) != (corners[..., 1] + edge[..., 1] > 0)      # the base inside: even-odd
-        left = (corners[..., 0] * edge[..., 1] - corners[..., 1] * edge[..., 0]) * np.sign(edge[..., 1]) > 0
-        inside = np.sum(crosses & left, -1) % 2 == 1
-        inward = np.minimum(inward, np.where(inside, -near, near) - (reach[0] + inset))
+    far = np.linalg.norm(np.concatenate(pieces)[:, None, None] - base_in_b, axis=-1).max(0)
+    outward = reach[1] - inset - far
+    inward = distance_to_polygons(base_in_b, pieces) - (reach[0] + inset)
     return np.minimum(outward, inward).min(-1)
 
 
