@@ -32,7 +32,8 @@ __all__ = ["BENDS_M", "EXIT_TOLERANCE_M", "Guarded", "RobotSettings", "arm_probl
            "placed_driver", "reachable_pusher_start", "robot_area", "robot_problem", "robot_sensor", "room_record",
            "run_arm_problem", "run_robot_episode", "task_centre", "task_workspace", "way_room"]
 
-#: the bends (m, away from the base at the way's middle) :func:`task_centre` tries for a way across the arm's front
+#: the bends (m, away from the base at the way's middle) :func:`task_centre` tries for a way across the arm's front;
+#: the first, 0, is the straight way
 BENDS_M = np.arange(0.0, 0.201, 0.01)
 
 #: a tip beyond the workspace by more than this (m) counts as a workspace exit (the arm's tracking
@@ -275,17 +276,22 @@ def way_room(problem: Problem, robot: RobotSettings, driver: DriverSettings, pos
 
 def bent_way_room(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object) -> tuple[float, float]:
     """The most room (m) :func:`way_room` finds over the bends :data:`BENDS_M`, and that bend (m)."""
-    bx, by, r_min, r_max = driver.reach_in_table()
-    rooms = _way_rooms(problem, robot, np.array([bx, by]), (r_min, r_max), pose, BENDS_M)
+    rooms = _bent_rooms(problem, robot, driver, pose)
     return float(rooms.max()), float(BENDS_M[rooms.argmax()])
 
 
 def room_record(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object) -> dict[str, float]:
-    """What a record keeps of the way's room in the arm's band (m): straight (``way_room_m``) and bent round the
-    base as far as helps (``bent_way_room_m``, at ``bend_m``)."""
-    room, bend = bent_way_room(problem, robot, driver, pose)
-    return {"way_room_m": round(way_room(problem, robot, driver, pose), 4), "bent_way_room_m": round(room, 4),
-            "bend_m": round(bend, 3)}
+    """What a record keeps of the way's room in the arm's band (m): straight (``way_room_m``, the first of
+    :data:`BENDS_M`, 0) and bent round the base as far as helps (``bent_way_room_m``, at ``bend_m``)."""
+    rooms = _bent_rooms(problem, robot, driver, pose)
+    return {"way_room_m": round(float(rooms[0]), 4), "bent_way_room_m": round(float(rooms.max()), 4),
+            "bend_m": round(float(BENDS_M[rooms.argmax()]), 3)}
+
+
+def _bent_rooms(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object) -> np.ndarray:
+    """:func:`way_room` for each bend of :data:`BENDS_M`."""
+    bx, by, r_min, r_max = driver.reach_in_table()
+    return _way_rooms(problem, robot, np.array([bx, by]), (r_min, r_max), pose, BENDS_M)
 
 
 def _way_rooms(problem: Problem, robot: RobotSettings, base: np.ndarray, reach: tuple[float, float], pose: object,
@@ -356,13 +362,17 @@ def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, p
         raise ValueError("the task lies outside the arm's reach and the workspace: nothing is left to push in "
                          "(move the task or the table frame)")
     bx, by, r_min, _ = driver.reach_in_table()
-    nearest = min(float(distance_to_polygons(np.array([bx, by]), problem.shape.footprint_world(end)))
-                  for end in (pose, goal))
+    nearest = _nearest_footprint(np.array([bx, by]), problem.shape, (pose, goal))
     if nearest <= ease:
         raise ValueError("the start or the goal lies over the arm's base, inside its reach: move the task or the "
                          "table frame")
     keep_out = ((bx, by, min(r_min + inset, nearest - ease), r_min + robot.reach_margin),)
     return tuple(map(tuple, held.tolist())), tuple(map(tuple, reach.tolist())), keep_out
+
+
+def _nearest_footprint(point: np.ndarray, shape: Shape, poses: tuple) -> float:
+    """The least distance (m) from ``point`` to ``shape``'s footprint at any of ``poses`` (0 inside one)."""
+    return min(float(distance_to_polygons(point, shape.footprint_world(p))) for p in poses)
 
 
 def robot_sensor(sensor: Any, world: Any, middle: object) -> Any:
@@ -411,7 +421,7 @@ def task_centre(problem: Problem, robot: RobotSettings, pose: object,
     for c in np.arange(r_min, r_max, step):
         bx, by, _, _ = robot.driver.facing(pose[:2], goal[:2], (float(c), 0.0)).reach_in_table()
         base = np.array([bx, by])
-        nearest = min(float(distance_to_polygons(base, problem.shape.footprint_world(end))) for end in (pose, goal))
+        nearest = _nearest_footprint(base, problem.shape, (pose, goal))
         if nearest < r_min + inset or np.max(np.linalg.norm(ends - base, axis=1)) > r_max - inset:
             continue
         outward = r_max - inset - np.linalg.norm(discs[:, :2] - base, axis=1) - discs[:, 2]

@@ -50,18 +50,23 @@ def obstacle_distances(x: State, scene: Scene):
     a, b = scene.edge_a, scene.edge_b
     # obstacles and edges are few and static: unrolled, so XLA fuses it all (no reductions); long
     # outlines (the judge's ellipse) are reduced as arrays, which compile in seconds rather than minutes
-    vectorised = a.shape[0] > UNROLL_CORNERS
     for m in range(scene.obstacles.shape[0]):
         ox, oy, r = scene.obstacles[m, 0], scene.obstacles[m, 1], scene.obstacles[m, 2]
-        dx, dy = ox - xb, oy - yb
-        px, py = c * dx + s * dy, -s * dx + c * dy                   # centre in {B}
+        d2, inside = _centre_to_outline(ox, oy, xb, yb, s, c, a, b)
         pdx, pdy = xc - ox, yc - oy
-        if vectorised:
-            d2, inside = _edge_distances(px[..., None], py[..., None], a, b)
-            yield m, r, d2, inside, pdx * pdx + pdy * pdy
-            continue
-        d2, inside = _outline_distance(px, py, a, b)
         yield m, r, d2, inside, pdx * pdx + pdy * pdy
+
+
+def _centre_to_outline(ox: jnp.ndarray, oy: jnp.ndarray, xb: jnp.ndarray, yb: jnp.ndarray, s: jnp.ndarray,
+                       c: jnp.ndarray, a: jnp.ndarray, b: jnp.ndarray):
+    """(least d² from the point (ox, oy) to the outline's edges a → b of a footprint at (xb, yb) turned by θ,
+    sin θ = s and cos θ = c; whether the point lies inside): unrolled over the edges, and for long outlines (the
+    judge's ellipse) reduced as arrays, which compile in seconds rather than minutes."""
+    dx, dy = ox - xb, oy - yb
+    px, py = c * dx + s * dy, -s * dx + c * dy                       # the point in {B}
+    if a.shape[0] > UNROLL_CORNERS:
+        return _edge_distances(px[..., None], py[..., None], a, b)
+    return _outline_distance(px, py, a, b)
 
 
 def _outline_distance(px: jnp.ndarray, py: jnp.ndarray, a: jnp.ndarray, b: jnp.ndarray):
@@ -234,12 +239,7 @@ def bound_gaps(x: State, scene: Scene):
         yield jnp.full_like(pusher, jnp.inf), pusher
     for k in range(scene.keep_out.shape[0]):          # keep-out discs: the footprint's gap and the pusher's
         ox, oy, r_body, r_pusher = (scene.keep_out[k, i] for i in range(4))
-        dx, dy = ox - xb, oy - yb
-        px, py = c * dx + s * dy, -s * dx + c * dy                   # the centre in {B}
-        if a.shape[0] > UNROLL_CORNERS:
-            d2, inside = _edge_distances(px[..., None], py[..., None], a, scene.edge_b)
-        else:
-            d2, inside = _outline_distance(px, py, a, scene.edge_b)
+        d2, inside = _centre_to_outline(ox, oy, xb, yb, s, c, a, scene.edge_b)
         body = jnp.where(inside, -r_body, jnp.sqrt(d2) - r_body)
         yield body, jnp.sqrt((xc - ox) ** 2 + (yc - oy) ** 2) - r_pusher - scene.pusher_radius
 
