@@ -60,14 +60,15 @@ def reach_pair(text: str) -> tuple[float, float]:
 
 
 def setup_of(record: dict) -> dict:
-    """What a results folder must hold alike: the plant, whether the safety filter was on, the arm's reach and the
-    object's band (records written before these keys were the robot's own, with the filter on and the default
-    reach; before the band was the annulus, docs/robot.md#the-band-is-an-annulus, they kept no bent way's room)."""
+    """What a results folder must hold alike: the plant, whether the safety filter was on, the arm's reach, the
+    object's band and the task's default area (records written before these keys were the robot's own, with the
+    filter on and the default reach; before the band was the annulus, docs/robot.md#the-band-is-an-annulus, they
+    kept no bent way's room; before docs/robot.md#the-tasks-area-round-the-disc, the area's margin was 0.25 m)."""
     filtered = record.get("filtered", record["plant"] != "physics")
     annulus = "bent_way_room_m" in record or "bent_way_room_m" in record.get("robot", {})
     return {"plant": record["plant"], "filter": "on" if filtered else "off",
             "reach": tuple(record.get("reach", RobotSettings().driver.reach)),
-            "band": "annulus" if annulus else "chord"}
+            "band": "annulus" if annulus else "chord", "area margin": record.get("workspace_margin", 0.25)}
 
 
 def row(records: list[dict]) -> dict:
@@ -153,7 +154,7 @@ def main() -> None:
         robot = dataclasses.replace(robot, driver=dataclasses.replace(robot.driver, reach=args.reach))
     setup = {"plant": "physics" if args.without_arm else "franka-sim",
              "filter": "on" if args.with_filter or not args.without_arm else "off", "reach": robot.driver.reach,
-             "band": "annulus"}
+             "band": "annulus", "area margin": robot.workspace_margin}
     other = sorted({k for r in records for k, v in setup_of(r).items() if v != setup[k]})
     if other:
         raise SystemExit(f"error: {path} holds episodes with another {' and '.join(other)} than this run's "
@@ -181,7 +182,8 @@ def main() -> None:
                 rec = {**dataclasses.asdict(episode.record), "shape": shape_name, **side,
                        "spread_cap": settings.mppi.spread_cap, "guidance_turn_m": settings.weights.guidance_turn_m,
                        "guidance_goal_heading": settings.weights.guidance_goal_heading,
-                       "reach": list(robot.driver.reach), "filtered": setup["filter"] == "on",
+                       "reach": list(robot.driver.reach), "workspace_margin": robot.workspace_margin,
+                       "filtered": setup["filter"] == "on",
                        "wall_s": round(time.perf_counter() - t0, 1)}
                 with open(path, "a") as fh:
                     fh.write(json.dumps(rec) + "\n")

@@ -252,7 +252,7 @@ def test_the_rendered_camera_sees_the_robot_world_with_the_arm_in_it() -> None:
 
 def test_the_robot_benchmark_runs_the_arms_problem_without_the_arm(tmp_path) -> None:
     """``robot_sim.py --without-arm``: the placed, bounded problem on the physics plant, recorded with the way's
-    room; a folder of another plant, reach or band is refused in one line. (It needs no franky; it is the robot
+    room; a folder of another plant, reach, band or area is refused in one line. (It needs no franky; it is the robot
     benchmark's test, run with the robot's.)"""
     script = Path(__file__).resolve().parents[1] / "benchmarks" / "robot_sim.py"
     base = [sys.executable, str(script), "--out", str(tmp_path), "--tasks", "I", "--shapes", "tee", "--seeds", "0"]
@@ -261,7 +261,7 @@ def test_the_robot_benchmark_runs_the_arms_problem_without_the_arm(tmp_path) -> 
     (rec,) = [json.loads(line) for line in (tmp_path / "records.jsonl").read_text().splitlines()]
     assert rec["plant"] == "physics" and rec["steps"] == 20 and "robot" not in rec
     assert rec["way_room_m"] < 0 < 0.02 < rec["bent_way_room_m"] and rec["bend_m"] >= 0.05    # it fits bent
-    assert rec["reach"] == [0.36, 0.8]
+    assert rec["reach"] == [0.36, 0.8] and rec["workspace_margin"] == 0.4
     assert "| I | tee | 0/1 |" in (tmp_path / "table.md").read_text()
     filtered = tmp_path / "filtered"                                 # the robot's guard and filter on the bare plant
     proc = subprocess.run([*base[:3], str(filtered), *base[4:], "--max-steps", "20", "--without-arm", "--with-filter"],
@@ -283,3 +283,9 @@ def test_the_robot_benchmark_runs_the_arms_problem_without_the_arm(tmp_path) -> 
     proc = subprocess.run([*base[:3], str(chord), *base[4:], "--without-arm", "--with-filter"], capture_output=True,
                           text=True, timeout=120)
     assert proc.returncode != 0 and "another band than this run's (band annulus)" in proc.stderr
+    narrow = tmp_path / "narrow"                   # a folder of the 0.25-m area round the task: refused too
+    narrow.mkdir()
+    (narrow / "records.jsonl").write_text(json.dumps({k: v for k, v in rec.items() if k != "workspace_margin"}) + "\n")
+    proc = subprocess.run([*base[:3], str(narrow), *base[4:], "--without-arm", "--with-filter"], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode != 0 and "another area margin than this run's (area margin 0.4)" in proc.stderr

@@ -213,10 +213,13 @@ def test_every_task_fits_the_arm_and_starts_within_its_reach(key: str, shape_nam
 def test_a_disc_task_is_placed_with_one_wide_way_round_its_obstacle(shape_name: str) -> None:
     """Task III on the arm: the disc lies against one edge of the reach's band, and the way past it on the
     other side is wider than with the band's middle on the task (the default, which Task IV keeps: its walls
-    shape its ways) and than the object across its way; the start and goal still fit."""
+    shape its ways) and than the object across its way; the start and goal still fit; and the object's area
+    (:func:`robot_area`: the task's default box within the reach) leaves that way as wide as the placement
+    reckons it (a box 0.25 m round the task had cut it to 21 cm, where the placement saw 31)."""
     from dexpush.experiments.registry import make_shape
-    from dexpush.experiments.robot_trial import RobotSettings, task_centre
+    from dexpush.experiments.robot_trial import RobotSettings, robot_area, task_centre
     from dexpush.experiments.scenarios import get_task
+    from dexpush.problem.regions import workspace_halfplanes
 
     shape, robot = make_shape(shape_name), RobotSettings()
     r_min, r_max = robot.driver.reach
@@ -242,6 +245,15 @@ def test_a_disc_task_is_placed_with_one_wide_way_round_its_obstacle(shape_name: 
         assert widest_way(placed) > width + 0.02          # the object as it starts, across its way, passes
         ends = np.concatenate([*shape.footprint_world(pose), *shape.footprint_world(problem.goal)])
         assert np.all(np.linalg.norm(placed.to_base(ends), axis=1) <= r_max - inset + 1e-9)
+        # outward from the base through the disc: the area's edge lies no nearer than the outer circle
+        held = robot_area(problem, robot, placed, pose, task.trial_start(shape, seed)[1])[0]
+        area = workspace_halfplanes(np.asarray(held))
+        cx, cy, r = problem.obstacles[0]
+        out = np.array([cx, cy]) - placed.reach_in_table()[:2]
+        out /= np.linalg.norm(out)
+        ahead = area[:, :2] @ out > 1e-9
+        edge = np.min((area[ahead, 2] - area[ahead, :2] @ (cx, cy)) / (area[ahead, :2] @ out))
+        assert edge - r >= r_max - inset - np.linalg.norm(placed.to_base((cx, cy))) - r - 1e-6
 
 
 def test_a_task_out_of_reach_is_refused_in_one_line() -> None:
