@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -38,6 +39,7 @@ from dexpush.common.files import atomic_path
 from dexpush.experiments.registry import make_shape
 from dexpush.experiments.robot_trial import RobotSettings, run_arm_problem, run_robot_episode
 from dexpush.experiments.scenarios import MAX_STEPS, get_task
+from dexpush.robot.driver import RobotError
 from dexpush.world.rendered_camera import SETUPS, RenderSettings
 from dexpush.world.sensing import SensorSettings
 
@@ -160,6 +162,7 @@ def main() -> None:
         raise SystemExit(f"error: {path} holds episodes with another {' and '.join(other)} than this run's "
                          f"({', '.join(f'{k} {setup[k]}' for k in other)}): use another --out")
     done = {(r["task"], r["shape"], r["seed"]) for r in records}
+    refused: list[str] = []
     write_table = arm_free_table if args.without_arm else table
     sensor = RenderSettings(setup=args.camera_setup) if args.camera == "rendered" else SensorSettings.realistic(seed=0)
     for shape_name in args.shapes.split(","):
@@ -175,9 +178,15 @@ def main() -> None:
                                                     sensor=sensor, robot=robot, settings=settings,
                                                     max_steps=args.max_steps, filtered=args.with_filter)
                 else:
-                    episode, report = run_robot_episode(task, shape, params="unknown", method="mppi-ukf", seed=seed,
-                                                        sensor=sensor, robot=robot, settings=settings,
-                                                        max_steps=args.max_steps)
+                    try:
+                        episode, report = run_robot_episode(task, shape, params="unknown", method="mppi-ukf",
+                                                            seed=seed, sensor=sensor, robot=robot, settings=settings,
+                                                            max_steps=args.max_steps)
+                    except RobotError as exc:      # the robot refused a motion: no episode to record; a re-run retries
+                        print(f"{task.key} {shape_name} seed {seed}: robot error, not recorded: {exc}", file=sys.stderr,
+                              flush=True)
+                        refused.append(f"{task.key} {shape_name} {seed}")
+                        continue
                     side = {"robot": report}
                 rec = {**dataclasses.asdict(episode.record), "shape": shape_name, **side,
                        "spread_cap": settings.mppi.spread_cap, "guidance_turn_m": settings.weights.guidance_turn_m,
@@ -195,7 +204,10 @@ def main() -> None:
     with atomic_path(out / "table.md") as tmp:
         tmp.write_text(write_table(records))
     print(write_table(records))
-    print(json.dumps({"records": len(records), "folder": str(out)}))
+    print(json.dumps({"records": len(records), "folder": str(out), "robot_errors": refused}))
+    if refused:
+        raise SystemExit(f"error: {len(refused)} episode(s) ended in a robot error and are not recorded "
+                         f"({', '.join(refused)}): run the same command again to retry them")
 
 
 if __name__ == "__main__":

@@ -289,3 +289,13 @@ def test_the_robot_benchmark_runs_the_arms_problem_without_the_arm(tmp_path) -> 
     proc = subprocess.run([*base[:3], str(narrow), *base[4:], "--without-arm", "--with-filter"], capture_output=True,
                           text=True, timeout=120)
     assert proc.returncode != 0 and "another area margin than this run's (area margin 0.4)" in proc.stderr
+
+
+def test_the_simulator_speed_check_reports_its_factor_and_capacity() -> None:
+    """``benchmarks/franka_sim_speed.py``: a fresh simulated FR3, idle, its real-time factor and step capacity."""
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "franka_sim_speed.py"
+    proc = subprocess.run([sys.executable, str(script), "--seconds", "1", "--repeats", "1"], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    (run,) = json.loads(proc.stdout.strip().splitlines()[-1])["runs"]
+    assert 0 < run["real_time_factor"] <= 1.05 and run["step_capacity"] >= run["real_time_factor"] - 1e-3

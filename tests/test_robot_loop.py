@@ -6,6 +6,7 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -331,3 +332,58 @@ def test_a_way_across_the_front_is_placed_where_it_fits_bent_round_the_base(key:
             assert np.isclose(far, way_room(problem, robot, placed, pose, poses=2))     # the ends stay put
         if key == "I" and shape_name == "tee":
             assert rooms[0] < 0                                          # straight, the T does not fit
+
+
+def test_the_guidance_figure_draws_the_arms_bounds(tmp_path) -> None:
+    """``plot_guidance`` of a problem on the arm draws the object's polygon and the base's keep-out disc (dashed,
+    one legend entry), as docs/make_robot_figures.py shows them."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from dexpush.experiments.registry import make_shape
+    from dexpush.experiments.robot_trial import RobotSettings, arm_problem, placed_driver
+    from dexpush.experiments.scenarios import get_task
+    from dexpush.viz import plot_guidance
+
+    shape, robot, task = make_shape("rect"), RobotSettings(), get_task("III")
+    pose, pusher = task.trial_start(shape, 0)
+    problem, pusher = arm_problem(task.problem(shape), robot, placed_driver(task.problem(shape), robot, pose), pose,
+                                  pusher)
+    fig = plot_guidance(shape, problem, np.array([[*pose, *pusher]]), title="t", path=tmp_path / "g.png")
+    ax = fig.axes[0]
+    dashed = [p for p in ax.patches if p.get_linestyle() == "--" and not p.get_fill()]
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    plt.close(fig)
+    assert len(dashed) >= 3 and labels.count("object's bound") == 1    # the polygon, the disc, the goal
+    assert (tmp_path / "g.png").stat().st_size > 10_000
+
+
+def test_the_robot_benchmark_goes_on_past_a_robot_error_and_says_which_episodes_to_retry(tmp_path, monkeypatch,
+                                                                                         capsys) -> None:
+    """An episode the robot refuses (a motion it cannot plan, a reflex at the start) is not recorded: the benchmark
+    says so in one line, runs the rest, and ends with an error naming the episodes a re-run retries."""
+    import importlib.util
+    import sys
+
+    from dexpush.robot.driver import RobotError
+
+    spec = importlib.util.spec_from_file_location("robot_sim", Path(__file__).resolve().parents[1] / "benchmarks"
+                                                  / "robot_sim.py")
+    robot_sim = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(robot_sim)
+    calls = []
+
+    def refused(task, shape, **kw):
+        calls.append(kw["seed"])
+        raise RobotError("moving the pusher to [-0.15, 0.0] m failed: Motion planner failed with error code -111")
+
+    monkeypatch.setattr(robot_sim, "run_robot_episode", refused)
+    monkeypatch.setattr(sys, "argv", ["robot_sim.py", "--out", str(tmp_path), "--tasks", "I", "--shapes", "rect",
+                                      "--seeds", "0,1"])
+    with pytest.raises(SystemExit, match=r"2 episode\(s\) ended in a robot error .*\(I rect 0, I rect 1\).*again"):
+        robot_sim.main()
+    err = capsys.readouterr().err
+    assert calls == [0, 1] and "I rect seed 1: robot error, not recorded: moving the pusher" in err
+    assert not (tmp_path / "records.jsonl").exists()

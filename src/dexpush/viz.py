@@ -180,7 +180,8 @@ def plot_guidance(shape: Shape, problem: object, states: np.ndarray | None = Non
                   path: str | os.PathLike | None = None) -> plt.Figure:
     """The cost-to-go V of ``problem.guide`` as a filled contour (positions where the footprint does not fit
     hatched out; a field with heading layers is drawn in the layer nearest the start's heading, or 0 without
-    ``states``), the obstacles, the goal and, given ``states``, the object's and the pusher's paths."""
+    ``states``), the obstacles, the object's own bound and keep-out discs (a robot's reach: dashed), the goal
+    and, given ``states``, the object's and the pusher's paths."""
     guide = problem.guide
     fig, ax = plt.subplots(figsize=(7, 5.5))
     if guide is not None:
@@ -193,6 +194,12 @@ def plot_guidance(shape: Shape, problem: object, states: np.ndarray | None = Non
         fig.colorbar(field, ax=ax, label="cost-to-go V (m)")
         ax.contourf(xs, ys, (~guide.free[k]).T.astype(float), levels=[0.5, 1.5], colors="none", hatches=["///"])
     draw_obstacles(ax, problem.obstacles, problem.polygons, problem.workspace)
+    if problem.object_workspace is not None:
+        ax.add_patch(Polygon(np.asarray(problem.object_workspace), closed=True, fill=False, ec="k", lw=1.2, ls="--",
+                             label="object's bound"))
+    for i, (cx, cy, r_object, _) in enumerate(problem.keep_out):
+        ax.add_patch(Circle((cx, cy), r_object, fill=False, ec="k", lw=1.2, ls="--",
+                            label=None if problem.object_workspace is not None or i else "object's bound"))
     _draw_pose(ax, shape, np.asarray(problem.goal), fill=False, ec="#d62728", lw=1.5, ls="--", label="goal")
     if states is not None:
         X = np.asarray(states)
