@@ -39,7 +39,7 @@ from dexpush.common.files import atomic_path
 from dexpush.experiments.registry import make_shape
 from dexpush.experiments.robot_trial import RobotSettings, run_arm_problem, run_robot_episode
 from dexpush.experiments.scenarios import MAX_STEPS, get_task
-from dexpush.robot.driver import RobotError
+from dexpush.robot.driver import RobotError, StartError
 from dexpush.world.rendered_camera import SETUPS, RenderSettings
 from dexpush.world.sensing import SensorSettings
 
@@ -182,11 +182,14 @@ def main() -> None:
                         episode, report = run_robot_episode(task, shape, params="unknown", method="mppi-ukf",
                                                             seed=seed, sensor=sensor, robot=robot, settings=settings,
                                                             max_steps=args.max_steps)
-                    except RobotError as exc:      # the robot refused a motion: no episode to record; a re-run retries
-                        print(f"{task.key} {shape_name} seed {seed}: robot error, not recorded: {exc}", file=sys.stderr,
-                              flush=True)
+                    except StartError as exc:      # the arm never reached the start: nothing recorded; a re-run retries
+                        print(f"{task.key} {shape_name} seed {seed}: the robot could not start, not recorded: {exc}",
+                              file=sys.stderr, flush=True)
                         refused.append(f"{task.key} {shape_name} {seed}")
                         continue
+                    except RobotError as exc:      # stopped mid-episode: a robot failure, not the planner's
+                        raise SystemExit(f"error: {task.key} {shape_name} seed {seed}: the robot stopped the episode: "
+                                         f"{exc} (the episodes before it are recorded in {path})") from None
                     side = {"robot": report}
                 rec = {**dataclasses.asdict(episode.record), "shape": shape_name, **side,
                        "spread_cap": settings.mppi.spread_cap, "guidance_turn_m": settings.weights.guidance_turn_m,
@@ -204,9 +207,9 @@ def main() -> None:
     with atomic_path(out / "table.md") as tmp:
         tmp.write_text(write_table(records))
     print(write_table(records))
-    print(json.dumps({"records": len(records), "folder": str(out), "robot_errors": refused}))
+    print(json.dumps({"records": len(records), "folder": str(out), "could_not_start": refused}))
     if refused:
-        raise SystemExit(f"error: {len(refused)} episode(s) ended in a robot error and are not recorded "
+        raise SystemExit(f"error: {len(refused)} episode(s) could not start on the robot and are not recorded "
                          f"({', '.join(refused)}): run the same command again to retry them")
 
 

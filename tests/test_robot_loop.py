@@ -119,6 +119,20 @@ def test_a_stop_that_raises_does_not_kill_the_watchdog() -> None:
     assert len(calls) == 2 and "ConnectionError: robot gone" in dog.errors[0]
 
 
+def test_a_start_the_arm_cannot_reach_is_a_start_error() -> None:
+    """A motion to the episode's start that the robot refuses is a :class:`StartError` (nothing pushed yet), which
+    the benchmark tells apart from a robot that stops mid-episode."""
+    from dexpush.robot.driver import RobotError, StartError
+
+    class Refusing(FakeDriver):
+        def move_to(self, xy: object) -> None:
+            raise RobotError("moving the pusher to [-0.1, 0.0] m failed: Motion planner failed with error code -111")
+
+    with RobotPlant(Refusing(), StillObject(), watchdog_s=None) as plant:
+        with pytest.raises(StartError, match="error code -111"):
+            plant.reset((0.0, 0.0, 0.0), (-0.1, 0.0))
+
+
 def test_the_plant_steps_on_the_robot_clock_and_counts_missed_deadlines() -> None:
     driver = FakeDriver()
     with RobotPlant(driver, StillObject(), watchdog_s=None) as plant:
@@ -360,14 +374,14 @@ def test_the_guidance_figure_draws_the_arms_bounds(tmp_path) -> None:
     assert (tmp_path / "g.png").stat().st_size > 10_000
 
 
-def test_the_robot_benchmark_goes_on_past_a_robot_error_and_says_which_episodes_to_retry(tmp_path, monkeypatch,
-                                                                                         capsys) -> None:
-    """An episode the robot refuses (a motion it cannot plan, a reflex at the start) is not recorded: the benchmark
-    says so in one line, runs the rest, and ends with an error naming the episodes a re-run retries."""
+def test_the_robot_benchmark_goes_on_past_an_episode_the_robot_cannot_start(tmp_path, monkeypatch, capsys) -> None:
+    """An episode whose start the arm cannot reach (a move its motion planner refuses) is not recorded: the
+    benchmark says so in one line, runs the rest, and ends with an error naming the episodes a re-run retries.
+    A robot that stops mid-episode ends the benchmark with a one-line error."""
     import importlib.util
     import sys
 
-    from dexpush.robot.driver import RobotError
+    from dexpush.robot.driver import RobotError, StartError
 
     spec = importlib.util.spec_from_file_location("robot_sim", Path(__file__).resolve().parents[1] / "benchmarks"
                                                   / "robot_sim.py")
@@ -377,13 +391,20 @@ def test_the_robot_benchmark_goes_on_past_a_robot_error_and_says_which_episodes_
 
     def refused(task, shape, **kw):
         calls.append(kw["seed"])
-        raise RobotError("moving the pusher to [-0.15, 0.0] m failed: Motion planner failed with error code -111")
+        raise StartError("moving the pusher to [-0.15, 0.0] m failed: Motion planner failed with error code -111")
 
     monkeypatch.setattr(robot_sim, "run_robot_episode", refused)
-    monkeypatch.setattr(sys, "argv", ["robot_sim.py", "--out", str(tmp_path), "--tasks", "I", "--shapes", "rect",
-                                      "--seeds", "0,1"])
-    with pytest.raises(SystemExit, match=r"2 episode\(s\) ended in a robot error .*\(I rect 0, I rect 1\).*again"):
+    argv = ["robot_sim.py", "--out", str(tmp_path), "--tasks", "I", "--shapes", "rect", "--seeds", "0,1"]
+    monkeypatch.setattr(sys, "argv", argv)
+    with pytest.raises(SystemExit, match=r"2 episode\(s\) could not start .*\(I rect 0, I rect 1\).*again"):
         robot_sim.main()
     err = capsys.readouterr().err
-    assert calls == [0, 1] and "I rect seed 1: robot error, not recorded: moving the pusher" in err
+    assert calls == [0, 1] and "I rect seed 1: the robot could not start, not recorded: moving the pusher" in err
     assert not (tmp_path / "records.jsonl").exists()
+
+    def reflex(task, shape, **kw):
+        raise RobotError("the Franka refused a velocity command twice: cartesian_reflex")
+
+    monkeypatch.setattr(robot_sim, "run_robot_episode", reflex)
+    with pytest.raises(SystemExit, match=r"^error: I rect seed 0: the robot stopped the episode: .*cartesian_reflex"):
+        robot_sim.main()

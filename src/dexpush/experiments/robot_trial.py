@@ -59,8 +59,8 @@ class RobotSettings:
     frame_timeout_s: float = 0.5          #: no frame for this long: the pusher stops until frames return (s)
     watchdog_s: float = 0.15              #: no command for this long (wall time): the watchdog stops the robot (s)
     deadline_s: float = 0.02              #: the planner's deadline after each tick (s): half a 25 Hz period
-    #: the default workspace around start and goal (m): the box grown by this lies beyond the arm's band round
-    #: Task III's disc (docs/robot.md#the-tasks-area-round-the-disc); 0.25 m left a T 21 cm past the disc
+    #: the default workspace around start and goal (m): grown by this, the box lies beyond the arm's outer circle
+    #: along Task III's way past its disc (docs/robot.md#the-tasks-area-round-the-disc)
     workspace_margin: float = 0.40
     reach_margin: float = 0.02            #: the planner keeps the pusher this far inside the arm's reach (m)
     object_room: float = 0.01             #: ... and the object's footprint a pusher's width and this further (m)

@@ -19,11 +19,15 @@ from dexpush.common.interfaces import Observation
 from dexpush.common.se2 import rotate, wrap_angle
 from dexpush.robot.watchdog import Watchdog
 
-__all__ = ["DriverSettings", "PoseSource", "PusherDriver", "RobotError", "RobotPlant"]
+__all__ = ["DriverSettings", "PoseSource", "PusherDriver", "RobotError", "RobotPlant", "StartError"]
 
 
 class RobotError(RuntimeError):
     """The robot refused or stopped a motion (a reflex, a lost connection, a limit): the message says which."""
+
+
+class StartError(RobotError):
+    """The robot could not carry the pusher to an episode's start: nothing was pushed yet."""
 
 
 @dataclass(frozen=True)
@@ -203,7 +207,10 @@ class RobotPlant:
             self.watchdog.pause()
         self.driver.stop()
         self.poses.place(q)
-        self.driver.move_to(p)
+        try:
+            self.driver.move_to(p)
+        except RobotError as exc:
+            raise StartError(str(exc)) from exc
         self._ready = True
         self._t0 = None
         self._tick = 0.0
