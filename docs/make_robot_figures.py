@@ -22,7 +22,7 @@ import matplotlib.pyplot as plt
 
 from dexpush.cli.config import default_config
 from dexpush.experiments.registry import make_shape
-from dexpush.experiments.robot_trial import RobotSettings, arm_problem, placed_driver, run_arm_problem
+from dexpush.experiments.robot_trial import RobotSettings, place_on_arm, run_arm_problem
 from dexpush.experiments.scenarios import get_task
 from dexpush.viz import plot_guidance
 from dexpush.world.sensing import SensorSettings
@@ -42,9 +42,7 @@ def main() -> None:
         robot = replace(RobotSettings(), workspace_margin=margin)
         ep, _ = run_arm_problem(task, shape, seed=args.seed, settings=settings, robot=robot,
                                 sensor=SensorSettings.realistic(seed=0))
-        task_problem = task.problem(shape, settings.weights, seed=args.seed)
-        pose, pusher = task.trial_start(shape, args.seed)
-        problem, _ = arm_problem(task_problem, robot, placed_driver(task_problem, robot, pose), pose, pusher)
+        problem = place_on_arm(task, shape, robot, args.seed, settings.weights).problem
         r = ep.record
         outcome = "success" if r.success else f"failure, {r.final_error_m * 100:.0f} cm from the goal"
         title = (f"Task III · {args.shape} · seed {args.seed} · the arm's band, area {margin:.2f} m round the task\n"

@@ -357,15 +357,14 @@ def test_the_guidance_figure_draws_the_arms_bounds(tmp_path) -> None:
     import matplotlib.pyplot as plt
 
     from dexpush.experiments.registry import make_shape
-    from dexpush.experiments.robot_trial import RobotSettings, arm_problem, placed_driver
+    from dexpush.experiments.robot_trial import RobotSettings, place_on_arm
     from dexpush.experiments.scenarios import get_task
     from dexpush.viz import plot_guidance
 
-    shape, robot, task = make_shape("rect"), RobotSettings(), get_task("III")
-    pose, pusher = task.trial_start(shape, 0)
-    problem, pusher = arm_problem(task.problem(shape), robot, placed_driver(task.problem(shape), robot, pose), pose,
-                                  pusher)
-    fig = plot_guidance(shape, problem, np.array([[*pose, *pusher]]), title="t", path=tmp_path / "g.png")
+    shape = make_shape("rect")
+    placed = place_on_arm(get_task("III"), shape, RobotSettings(), 0)
+    fig = plot_guidance(shape, placed.problem, np.array([[*placed.pose, *placed.pusher]]), title="t",
+                        path=tmp_path / "g.png")
     ax = fig.axes[0]
     dashed = [p for p in ax.patches if p.get_linestyle() == "--" and not p.get_fill()]
     labels = [t.get_text() for t in ax.get_legend().get_texts()]

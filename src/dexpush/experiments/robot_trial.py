@@ -24,13 +24,15 @@ from dexpush.model.shape import Shape
 from dexpush.problem.problem import Problem
 from dexpush.problem.regions import MAX_POLYGON_CORNERS, clip_convex, halfplane_corners, workspace_halfplanes
 from dexpush.problem.scene import JUDGE_PIECE_CORNERS, footprint_pieces
+from dexpush.problem.weights import CostWeights
 from dexpush.robot.driver import DriverSettings, RobotPlant
 from dexpush.robot.guarded import FrameGuard, GuardedController
 from dexpush.robot.safety import SafetySettings
 
-__all__ = ["BENDS_M", "EXIT_TOLERANCE_M", "Guarded", "RobotSettings", "arm_problem", "arm_safety", "bent_way_room",
-           "placed_driver", "reachable_pusher_start", "robot_area", "robot_problem", "robot_sensor", "room_record",
-           "run_arm_problem", "run_robot_episode", "task_centre", "task_workspace", "way_room"]
+__all__ = ["BENDS_M", "EXIT_TOLERANCE_M", "ArmPlacement", "Guarded", "RobotSettings", "arm_problem", "arm_safety",
+           "bent_way_room", "place_on_arm", "placed_driver", "reachable_pusher_start", "robot_area", "robot_problem",
+           "robot_sensor", "room_record", "run_arm_problem", "run_robot_episode", "task_centre", "task_workspace",
+           "way_room"]
 
 #: the bends (m, away from the base at the way's middle) :func:`task_centre` tries for a way across the arm's front;
 #: the first, 0, is the straight way
@@ -202,6 +204,28 @@ def placed_driver(problem: Problem, robot: RobotSettings, pose: object) -> Drive
     return robot.driver.facing(np.asarray(pose)[:2], np.asarray(problem.goal[:2]), task_centre(problem, robot, pose))
 
 
+@dataclass(frozen=True)
+class ArmPlacement:
+    """An episode of a task placed on the simulated arm (:func:`place_on_arm`)."""
+
+    task_problem: Problem      #: the task's own problem
+    driver: DriverSettings     #: the driver with the table frame placed for the episode (:func:`placed_driver`)
+    problem: Problem           #: the problem the planner solves on the arm (:func:`arm_problem`)
+    pose: np.ndarray           #: the object's start (x, y, θ)
+    pusher: np.ndarray         #: the pusher's start, where the arm reaches (:func:`reachable_pusher_start`)
+
+
+def place_on_arm(task: Task, shape: Shape, robot: RobotSettings, seed: int,
+                 weights: CostWeights | None = None) -> ArmPlacement:
+    """The episode ``seed`` of ``task`` with ``shape`` placed across the simulated arm's front and bounded by
+    its reach, as :func:`run_robot_episode` and :func:`run_arm_problem` place it."""
+    task_problem = task.problem(shape, weights, seed=seed)
+    pose, pusher = task.trial_start(shape, seed)
+    driver = placed_driver(task_problem, robot, pose)
+    problem, pusher = arm_problem(task_problem, robot, driver, pose, pusher)
+    return ArmPlacement(task_problem, driver, problem, np.asarray(pose, dtype=np.float64), pusher)
+
+
 def arm_problem(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object,
                 pusher: object) -> tuple[Problem, np.ndarray]:
     """The problem the planner solves on the arm, and the pusher's start: ``problem`` bounded by the arm's
@@ -247,10 +271,8 @@ def run_arm_problem(task: Task, shape: Shape, *, params: str | object = "unknown
     robot = robot or RobotSettings()
     settings = settings or ControllerSettings()
     method = get_method(method)
-    task_problem = task.problem(shape, settings.weights, seed=seed)
-    pose, pusher = task.trial_start(shape, seed)
-    driver = placed_driver(task_problem, robot, pose)
-    problem, pusher = arm_problem(task_problem, robot, driver, pose, pusher)
+    placed = place_on_arm(task, shape, robot, seed, settings.weights)
+    problem, driver, pose, pusher = placed.problem, placed.driver, placed.pose, placed.pusher
     runs = method
     if filtered:
         safety, T = arm_safety(problem, robot, driver), settings.mppi.control_period
@@ -260,7 +282,7 @@ def run_arm_problem(task: Task, shape: Shape, *, params: str | object = "unknown
     condition = Condition(task.key, shape.name, params if isinstance(params, str) else "custom", method.name)
     episode = make_episode(problem, condition, result, 1, plant=plant, sensor=sensor,
                            control_period=settings.mppi.control_period, method=method)
-    return episode, room_record(task_problem, robot, driver, pose)
+    return episode, room_record(placed.task_problem, robot, driver, pose)
 
 
 def way_room(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object, poses: int = 21,
