@@ -4,7 +4,7 @@ to goal, tip tracking, limit checks and real-time factor per task and shape (doc
     python benchmarks/robot_sim.py --out docs/results/robot [--tasks I,II,III,IV] [--shapes rect]
                                    [--seeds 0-29] [--max-steps 1500]
                                    [--camera rendered [--camera-setup two]] [--without-arm]
-                                   [--with-filter] [--reach R_MIN,R_MAX]
+                                   [--with-filter] [--object-watch] [--reach R_MIN,R_MAX]
                                    [planner flags of `dexpush bench`: --spread-cap C|off, --guidance-turn M|off, ...]
 
 With ``--without-arm`` the same placed and bounded problems run on the physics plant with no robot (the
@@ -40,6 +40,7 @@ from dexpush.experiments.registry import make_shape
 from dexpush.experiments.robot_trial import RobotSettings, run_arm_problem, run_robot_episode
 from dexpush.experiments.scenarios import MAX_STEPS, get_task
 from dexpush.robot.driver import RobotError, StartError
+from dexpush.robot.object_watch import ObjectWatchSettings
 from dexpush.world.rendered_camera import SETUPS, RenderSettings
 from dexpush.world.sensing import SensorSettings
 
@@ -65,12 +66,14 @@ def setup_of(record: dict) -> dict:
     """What a results folder must hold alike: the plant, whether the safety filter was on, the arm's reach, the
     object's band and the task's default area (records written before these keys were the robot's own, with the
     filter on and the default reach; before the band was the annulus, docs/robot.md#the-band-is-an-annulus, they
-    kept no bent way's room; before docs/robot.md#the-tasks-area-round-the-disc, the area's margin was 0.25 m)."""
+    kept no bent way's room; before docs/robot.md#the-tasks-area-round-the-disc, the area's margin was 0.25 m;
+    before docs/robot.md#the-objects-clearance, the filter had no object watch)."""
     filtered = record.get("filtered", record["plant"] != "physics")
     annulus = "bent_way_room_m" in record or "bent_way_room_m" in record.get("robot", {})
     return {"plant": record["plant"], "filter": "on" if filtered else "off",
             "reach": tuple(record.get("reach", RobotSettings().driver.reach)),
-            "band": "annulus" if annulus else "chord", "area margin": record.get("workspace_margin", 0.25)}
+            "band": "annulus" if annulus else "chord", "area margin": record.get("workspace_margin", 0.25),
+            "object watch": "on" if record.get("object_watch", False) else "off"}
 
 
 def row(records: list[dict]) -> dict:
@@ -142,6 +145,8 @@ def main() -> None:
                     help="the arm's problem on the physics plant with no robot (the pusher moves as commanded)")
     ap.add_argument("--with-filter", action="store_true",
                     help="with --without-arm: the planner behind the robot's frame guard and safety filter")
+    ap.add_argument("--object-watch", action="store_true",
+                    help="the filter with the object's watch, off by default (docs/robot.md#the-objects-clearance)")
     add_planner_flags(ap)     # --spread-cap C|off, --guidance-turn M|off, ...: the planner's defaults otherwise
     args = ap.parse_args()
     settings = default_config(planner_overrides(args)[0]).controller
@@ -151,12 +156,15 @@ def main() -> None:
     records = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
     if args.with_filter and not args.without_arm:
         raise SystemExit("error: --with-filter goes with --without-arm (on the robot the filter is always on)")
-    robot = RobotSettings()
+    if args.object_watch and args.without_arm and not args.with_filter:
+        raise SystemExit("error: --object-watch is the filter's: with --without-arm give --with-filter too")
+    robot = RobotSettings(object_watch=ObjectWatchSettings()) if args.object_watch else RobotSettings()
     if args.reach is not None:
         robot = dataclasses.replace(robot, driver=dataclasses.replace(robot.driver, reach=args.reach))
     setup = {"plant": "physics" if args.without_arm else "franka-sim",
              "filter": "on" if args.with_filter or not args.without_arm else "off", "reach": robot.driver.reach,
              "band": "annulus", "area margin": robot.workspace_margin}
+    setup["object watch"] = "on" if setup["filter"] == "on" and robot.object_watch is not None else "off"
     other = sorted({k for r in records for k, v in setup_of(r).items() if v != setup[k]})
     if other:
         raise SystemExit(f"error: {path} holds episodes with another {' and '.join(other)} than this run's "
@@ -195,7 +203,7 @@ def main() -> None:
                        "spread_cap": settings.mppi.spread_cap, "guidance_turn_m": settings.weights.guidance_turn_m,
                        "guidance_goal_heading": settings.weights.guidance_goal_heading,
                        "reach": list(robot.driver.reach), "workspace_margin": robot.workspace_margin,
-                       "filtered": setup["filter"] == "on",
+                       "filtered": setup["filter"] == "on", "object_watch": setup["object watch"] == "on",
                        "wall_s": round(time.perf_counter() - t0, 1)}
                 with open(path, "a") as fh:
                     fh.write(json.dumps(rec) + "\n")

@@ -27,6 +27,7 @@ from dexpush.problem.scene import JUDGE_PIECE_CORNERS, footprint_pieces
 from dexpush.problem.weights import CostWeights
 from dexpush.robot.driver import DriverSettings, RobotPlant
 from dexpush.robot.guarded import FrameGuard, GuardedController
+from dexpush.robot.object_watch import ObjectWatch, ObjectWatchSettings
 from dexpush.robot.safety import SafetySettings
 
 __all__ = ["BENDS_M", "EXIT_TOLERANCE_M", "ArmPlacement", "Guarded", "RobotSettings", "arm_problem", "arm_safety",
@@ -58,6 +59,10 @@ class RobotSettings:
     safety: SafetySettings = field(default_factory=SafetySettings)
     driver: DriverSettings = field(default_factory=DriverSettings)
     guard: FrameGuard | None = field(default_factory=FrameGuard)   #: None: frames reach the planner as they come
+    #: the filter's rows that slow the pusher when the frames show the object closing on an obstacle, e.g.
+    #: ``ObjectWatchSettings()``; None (the default): the filter guards the pusher only. Off because it measured
+    #: worse than none (docs/robot.md#the-objects-clearance)
+    object_watch: ObjectWatchSettings | None = None
     frame_timeout_s: float = 0.5          #: no frame for this long: the pusher stops until frames return (s)
     watchdog_s: float = 0.15              #: no command for this long (wall time): the watchdog stops the robot (s)
     deadline_s: float = 0.02              #: the planner's deadline after each tick (s): half a 25 Hz period
@@ -247,11 +252,14 @@ def arm_safety(problem: Problem, robot: RobotSettings, driver: DriverSettings) -
 def guarded_controller(controller: Any, problem: Problem, robot: RobotSettings, safety: SafetySettings,
                        control_period: float, position: Any = None) -> GuardedController:
     """``controller`` behind a fresh copy of ``robot``'s frame guard and the safety filter ``safety``, kept off
-    ``problem``'s obstacles; ``position`` reads the pusher tip (None: carried from the frames)."""
+    ``problem``'s obstacles, with the object's watch (``robot.object_watch``); ``position`` reads the pusher tip
+    (None: carried from the frames)."""
     guard = None if robot.guard is None else replace(robot.guard)
+    watch = (None if robot.object_watch is None else
+             ObjectWatch(problem.shape, problem.obstacles, problem.polygons, robot.object_watch))
     return GuardedController(controller, control_period, safety, problem.obstacles, problem.shape.pusher_radius,
                              guard, position=position, frame_timeout_s=robot.frame_timeout_s,
-                             polygons=problem.polygons)
+                             polygons=problem.polygons, watch=watch)
 
 
 def run_arm_problem(task: Task, shape: Shape, *, params: str | object = "unknown", method: str | Method = "mppi-ukf",

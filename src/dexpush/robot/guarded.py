@@ -15,7 +15,8 @@ from dexpush.common.checks import check_positive
 from dexpush.common.interfaces import Controller, Observation
 from dexpush.common.se2 import wrap_angle
 from dexpush.problem.regions import convex_polygon
-from dexpush.robot.safety import SafetySettings, filter_velocity
+from dexpush.robot.object_watch import ObjectWatch
+from dexpush.robot.safety import SafetySettings, barrier_rate, filter_velocity
 
 __all__ = ["FrameGuard", "GuardedController"]
 
@@ -79,6 +80,10 @@ class GuardedController:
             pusher position, carried forward by the commands sent since.
         frame_timeout_s: with no frame for this long (s) the command is zero until frames return
             (the robot brakes within its own limits; the planner keeps predicting).
+        watch: an :class:`dexpush.robot.object_watch.ObjectWatch` that slows the pusher when the accepted frames
+            show the object closing on an obstacle (None: the filter guards the pusher only). It reads the frames'
+            times on the plant's clock, which starts at the first period (``Observation.time``), and stamps the
+            k-th command (k − 1)·T.
 
     Counters: ``filtered`` (commands the filter changed), ``relaxed`` (periods in which it had to drop
     the acceleration or speed rows), ``stopped`` (periods in which no velocity was safe: it sent zero),
@@ -88,8 +93,9 @@ class GuardedController:
     def __init__(self, controller: Controller, control_period: float, safety: SafetySettings | None = None,
                  obstacles: object = (), pusher_radius: float = 0.0, guard: FrameGuard | None = None,
                  position: Callable[[], np.ndarray] | None = None, frame_timeout_s: float = 0.5,
-                 polygons: object = ()) -> None:
+                 polygons: object = (), watch: ObjectWatch | None = None) -> None:
         self.controller = controller
+        self.watch = watch
         self.control_period = check_positive("control_period", control_period, "s")
         self.safety = safety or SafetySettings()
         self.obstacles = np.asarray(obstacles, dtype=np.float64).reshape(-1, 3)
@@ -117,6 +123,8 @@ class GuardedController:
         self._since_frame = 0.0
         self.periods = 0
         self._p = None if pusher_xy is None else np.asarray(pusher_xy, dtype=np.float64).reshape(2)
+        if self.watch is not None:
+            self.watch.reset()
         if self.guard is not None and object_pose is not None and pusher_xy is not None:
             self.guard(Observation(np.asarray(object_pose, float), np.asarray(pusher_xy, float), 0.0))
 
@@ -134,6 +142,8 @@ class GuardedController:
         else:
             self._since_frame += self.control_period
         seen = self.guard(frame) if self.guard is not None else frame
+        if seen is not None and self.watch is not None:
+            self.watch.see(seen.object_pose, seen.time)
         u = np.asarray(self.controller.act(seen, frame_period), dtype=np.float64)
         p = self._position() if self._position is not None else self._p
         if p is None:
@@ -143,9 +153,13 @@ class GuardedController:
             self._v = np.zeros(2)
         else:
             u = u if np.all(np.isfinite(u)) else np.zeros(2)       # a non-finite request is a request to stop
-            result = filter_velocity(u.reshape(2), np.asarray(p, dtype=np.float64).reshape(2), self._v,
-                                     self.control_period, self.safety, self.obstacles, self.pusher_radius,
-                                     self.polygons)
+            p = np.asarray(p, dtype=np.float64).reshape(2)
+            extra = () if self.watch is None else (
+                ("object", *self.watch.rows(p, self.control_period,
+                                            barrier_rate(self.control_period, self.safety),
+                                            now=(self.periods - 1) * self.control_period)),)
+            result = filter_velocity(u.reshape(2), p, self._v, self.control_period, self.safety, self.obstacles,
+                                     self.pusher_radius, self.polygons, extra)
             self.filtered += result.changed
             if result.changed:
                 for name in result.active:
@@ -153,6 +167,8 @@ class GuardedController:
             self.relaxed += result.relaxed not in ("", "all")
             self.stopped += result.relaxed == "all"
             self._v = result.velocity
+        if self.watch is not None:
+            self.watch.sent(self._v, (self.periods - 1) * self.control_period)
         if self._position is None:
             self._p = p + self._v * self.control_period
         return self._v.copy()

@@ -40,7 +40,7 @@ import numpy as np
 from dexpush.common.checks import check_nonnegative, check_positive
 from dexpush.problem.regions import convex_polygon, nearest_on_outline, workspace_halfplanes
 
-__all__ = ["FilterResult", "SafetySettings", "filter_velocity", "safe_velocity"]
+__all__ = ["FilterResult", "SafetySettings", "barrier_rate", "filter_velocity", "safe_velocity"]
 
 _SIDES = 16
 _COS = np.cos(np.pi / _SIDES)
@@ -105,10 +105,15 @@ class FilterResult:
     relaxed: str
 
 
+def barrier_rate(T: float, s: SafetySettings) -> float:
+    """γ of the barrier rows: T / ``braking_s``, at most 1."""
+    return min(1.0, T / s.braking_s)
+
+
 def _rows(p: np.ndarray, v_prev: np.ndarray, obstacles: np.ndarray, polygons: tuple[np.ndarray, ...], radius: float,
           T: float, s: SafetySettings) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """The constraint groups (name, A, b) of A v ≤ b."""
-    gamma = min(1.0, T / s.braking_s)
+    gamma = barrier_rate(T, s)
     groups = [("speed", _NORMALS, np.full(_SIDES, s.v_max * _COS)),
               ("acceleration", _NORMALS, _NORMALS @ v_prev + s.a_max * T * _COS)]
     if s.workspace is not None:
@@ -190,11 +195,15 @@ def safe_velocity(u: object, pusher_xy: object, v_prev: object, control_period: 
 
 
 def filter_velocity(u: np.ndarray, p: np.ndarray, v_prev: np.ndarray, T: float, settings: SafetySettings,
-                    obstacles: np.ndarray, pusher_radius: float, polygons: tuple[np.ndarray, ...]) -> FilterResult:
+                    obstacles: np.ndarray, pusher_radius: float, polygons: tuple[np.ndarray, ...],
+                    extra: tuple[tuple[str, np.ndarray, np.ndarray], ...] = ()) -> FilterResult:
     """:func:`safe_velocity` on inputs already checked: float64 (2,) ``u`` (finite), ``p`` and ``v_prev``,
     ``T`` > 0, discs (m, 3) and ``polygons`` as :func:`dexpush.problem.regions.convex_polygon` returns them
-    (counter-clockwise). A loop that filters every period checks its keep-out zones once and calls this."""
+    (counter-clockwise). A loop that filters every period checks its keep-out zones once and calls this.
+    ``extra``: more groups (name, A, b) of rows A v ≤ b, kept like the keep-out rows (the object's barrier,
+    :mod:`dexpush.robot.object_watch`)."""
     groups = _rows(p, v_prev, obstacles, polygons, pusher_radius, T, settings)
+    groups += [(name, A, b) for name, A, b in extra if len(b)]
     by_name = {name: (A, b) for name, A, b in groups}
     tiers = [("", [g[0] for g in groups]),
              ("acceleration", [g[0] for g in groups if g[0] != "acceleration"]),
