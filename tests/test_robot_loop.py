@@ -289,8 +289,9 @@ def test_the_straight_ways_room_is_the_footprints_least_clearance_to_the_arms_ba
     """``way_room``: an object that stays put at the band's middle has as much room as its corners leave to the
     circle and to the line; narrowing the reach by δ takes at most δ of the room; the T's long push does not
     fit the FR3's band in a straight line where the box's does (docs/robot.md#the-arms-problem-without-the-arm)."""
+    from dexpush.experiments.arm_room import way_room
     from dexpush.experiments.registry import make_shape
-    from dexpush.experiments.robot_trial import RobotSettings, placed_driver, way_room
+    from dexpush.experiments.robot_trial import RobotSettings, placed_driver
     from dexpush.experiments.scenarios import get_task
     from dexpush.problem.problem import Problem
 
@@ -327,8 +328,9 @@ def test_a_way_across_the_front_is_placed_where_it_fits_bent_round_the_base(key:
     way bent round the base has the most room: the T's long push, which no straight way fits, gets 2 cm or more
     with a bend of 5 cm or more; the bend never takes room from a way that is straight in the open (a turn on
     the spot), and it leaves the ends where they are (bend 0 at start and goal)."""
+    from dexpush.experiments.arm_room import BENDS_M, way_room
     from dexpush.experiments.registry import make_shape
-    from dexpush.experiments.robot_trial import BENDS_M, RobotSettings, placed_driver, task_centre, way_room
+    from dexpush.experiments.robot_trial import RobotSettings, placed_driver, task_centre
     from dexpush.experiments.scenarios import get_task
 
     task, shape, robot = get_task(key), make_shape(shape_name), RobotSettings()

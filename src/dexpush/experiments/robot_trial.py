@@ -13,8 +13,9 @@ from typing import Any
 import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive
-from dexpush.common.se2 import rotate, wrap_angle
+from dexpush.common.se2 import rotate
 from dexpush.control.controller import ControllerSettings
+from dexpush.experiments.arm_room import bent_way_room, room_record
 from dexpush.experiments.methods import Method, get_method
 from dexpush.experiments.records import Condition, Episode, make_episode
 from dexpush.experiments.runner import run_trial, trial_spec
@@ -23,21 +24,15 @@ from dexpush.model.polygons import distance_to_polygons
 from dexpush.model.shape import Shape
 from dexpush.problem.problem import Problem
 from dexpush.problem.regions import MAX_POLYGON_CORNERS, clip_convex, halfplane_corners, workspace_halfplanes
-from dexpush.problem.scene import JUDGE_PIECE_CORNERS, footprint_pieces
 from dexpush.problem.weights import CostWeights
 from dexpush.robot.driver import DriverSettings, RobotPlant
 from dexpush.robot.guarded import FrameGuard, GuardedController
 from dexpush.robot.object_watch import ObjectWatch, ObjectWatchSettings
 from dexpush.robot.safety import SafetySettings
 
-__all__ = ["BENDS_M", "EXIT_TOLERANCE_M", "ArmPlacement", "Guarded", "RobotSettings", "arm_problem", "arm_safety",
-           "bent_way_room", "place_on_arm", "placed_driver", "reachable_pusher_start", "robot_area", "robot_problem",
-           "robot_sensor", "room_record", "run_arm_problem", "run_robot_episode", "task_centre", "task_workspace",
-           "way_room"]
-
-#: the bends (m, away from the base at the way's middle) :func:`task_centre` tries for a way across the arm's front;
-#: the first, 0, is the straight way
-BENDS_M = np.arange(0.0, 0.201, 0.01)
+__all__ = ["EXIT_TOLERANCE_M", "ArmPlacement", "Guarded", "RobotSettings", "arm_problem", "arm_safety", "place_on_arm",
+           "placed_driver", "reachable_pusher_start", "robot_area", "robot_problem", "robot_sensor", "run_arm_problem",
+           "run_robot_episode", "task_centre", "task_workspace"]
 
 #: a tip beyond the workspace by more than this (m) counts as a workspace exit (the arm's tracking
 #: error at the boundary, well under a millimetre, does not)
@@ -274,7 +269,8 @@ def run_arm_problem(task: Task, shape: Shape, *, params: str | object = "unknown
     (docs/robot.md#the-arms-problem-without-the-arm).
 
     Returns:
-        the :class:`dexpush.experiments.records.Episode` and the way's room (:func:`room_record`).
+        the :class:`dexpush.experiments.records.Episode` and the way's room
+        (:func:`dexpush.experiments.arm_room.room_record`).
     """
     robot = robot or RobotSettings()
     settings = settings or ControllerSettings()
@@ -291,62 +287,6 @@ def run_arm_problem(task: Task, shape: Shape, *, params: str | object = "unknown
     episode = make_episode(problem, condition, result, 1, plant=plant, sensor=sensor,
                            control_period=settings.mppi.control_period, method=method)
     return episode, room_record(placed.task_problem, robot, driver, pose)
-
-
-def way_room(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object, poses: int = 21,
-             bend: float = 0.0) -> float:
-    """The room (m) a way leaves the object in the arm's band: the least clearance of the footprint, carried from
-    ``pose`` to the goal while it turns at a steady rate (``poses`` poses, the ends included), to the annulus
-    :func:`robot_area` bounds the object by (:meth:`RobotSettings.object_inset` inside r_max and beyond r_min),
-    with the table frame placed by ``driver``. The way is straight, or with ``bend`` (m) a parabola that
-    leaves the straight line by that much at its middle, away from the base. Below zero the way does not fit:
-    the object must take another, or leave the band where the pusher then has no room behind it
-    (docs/robot.md#the-band-is-an-annulus). Obstacles and the task's own walls are not counted."""
-    bx, by, r_min, r_max = driver.reach_in_table()
-    return float(_way_rooms(problem, robot, np.array([bx, by]), (r_min, r_max), pose, np.array([bend]), poses)[0])
-
-
-def bent_way_room(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object) -> tuple[float, float]:
-    """The most room (m) :func:`way_room` finds over the bends :data:`BENDS_M`, and that bend (m)."""
-    rooms = _bent_rooms(problem, robot, driver, pose)
-    return float(rooms.max()), float(BENDS_M[rooms.argmax()])
-
-
-def room_record(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object) -> dict[str, float]:
-    """What a record keeps of the way's room in the arm's band (m): straight (``way_room_m``, the first of
-    :data:`BENDS_M`, 0) and bent round the base as far as helps (``bent_way_room_m``, at ``bend_m``)."""
-    rooms = _bent_rooms(problem, robot, driver, pose)
-    return {"way_room_m": round(float(rooms[0]), 4), "bent_way_room_m": round(float(rooms.max()), 4),
-            "bend_m": round(float(BENDS_M[rooms.argmax()]), 3)}
-
-
-def _bent_rooms(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object) -> np.ndarray:
-    """:func:`way_room` for each bend of :data:`BENDS_M`."""
-    bx, by, r_min, r_max = driver.reach_in_table()
-    return _way_rooms(problem, robot, np.array([bx, by]), (r_min, r_max), pose, BENDS_M)
-
-
-def _way_rooms(problem: Problem, robot: RobotSettings, base: np.ndarray, reach: tuple[float, float], pose: object,
-               bends: np.ndarray, poses: int = 21) -> np.ndarray:
-    """:func:`way_room` for each of ``bends`` (B,), the base at ``base`` (table frame) and the reach (r_min, r_max):
-    the footprint's farthest corner against the outer circle, its nearest point against the inner (0 with the
-    base inside it), both from the base seen in each pose's frame {B} (the footprint as its convex pieces, a long
-    outline circumscribed by one of 64 corners: never more room)."""
-    pose = np.asarray(pose, dtype=np.float64)
-    goal = np.asarray(problem.goal, dtype=np.float64)
-    t = np.linspace(0.0, 1.0, poses)
-    u = (pose[:2] + goal[:2]) / 2 - base
-    u = u / np.linalg.norm(u) if np.linalg.norm(u) > 1e-9 else np.array([1.0, 0.0])
-    centres = (pose[:2] + t[:, None] * (goal[:2] - pose[:2]))[None] + (4 * t * (1 - t))[None, :, None] \
-        * np.asarray(bends, dtype=np.float64)[:, None, None] * u                          # (B, poses, 2)
-    turn = pose[2] + t * wrap_angle(goal[2] - pose[2])
-    base_in_b = rotate(base - centres, -turn)                  # (B, poses, 2): the base seen from each pose's {B}
-    pieces = footprint_pieces(problem.shape, JUDGE_PIECE_CORNERS)     # the ellipse's 64-gon round it
-    inset = robot.object_inset(problem.shape.pusher_radius)
-    far = np.linalg.norm(np.concatenate(pieces)[:, None, None] - base_in_b, axis=-1).max(0)
-    outward = reach[1] - inset - far
-    inward = distance_to_polygons(base_in_b, pieces) - (reach[0] + inset)
-    return np.minimum(outward, inward).min(-1)
 
 
 def robot_area(problem: Problem, robot: RobotSettings, driver: DriverSettings, pose: object,
@@ -427,8 +367,9 @@ def task_centre(problem: Problem, robot: RobotSettings, pose: object,
     with walls or a workspace of its own, whose bounds shape the ways.
 
     With no obstacles, c gives the way the most room in the annulus :func:`robot_area` bounds the object by: the
-    largest :func:`way_room` over ways that bend round the base by 0–20 cm (:func:`bent_way_room`). A long push across
-    the front fits the FR3's band only bent (docs/robot.md#the-band-is-an-annulus).
+    largest :func:`dexpush.experiments.arm_room.way_room` over ways that bend round the base by 0–20 cm
+    (:func:`~dexpush.experiments.arm_room.bent_way_room`). A long push across the front fits the FR3's band only
+    bent (docs/robot.md#the-band-is-an-annulus).
 
     With discs alone, c is chosen among those at which the start's and the goal's footprints lie within that
     annulus where the narrower of the ways past each obstacle is widest: for each disc the wider of its two
