@@ -17,7 +17,7 @@ from dexpush.robot.driver import DriverSettings
 
 __all__ = ["BENDS_M", "bent_way_room", "room_record", "way_room"]
 
-#: the bends (m, away from the base at the way's middle) :func:`task_centre` tries for a way across the arm's front;
+#: the bends (m, away from the base at the way's middle) :func:`~dexpush.experiments.robot_trial.task_centre` tries;
 #: the first, 0, is the straight way
 BENDS_M = np.arange(0.0, 0.201, 0.01)
 

@@ -134,6 +134,7 @@ class GuardedController:
 
     def act(self, frame: Observation | None, frame_period: float | None = None) -> np.ndarray:
         self.periods += 1
+        now = (self.periods - 1) * self.control_period      # on the plant's clock, which starts at the first period
         if self.on_act is not None:
             self.on_act(self.periods)
         if frame is not None:
@@ -156,8 +157,7 @@ class GuardedController:
             p = np.asarray(p, dtype=np.float64).reshape(2)
             extra = () if self.watch is None else (
                 ("object", *self.watch.rows(p, self.control_period,
-                                            barrier_rate(self.control_period, self.safety),
-                                            now=(self.periods - 1) * self.control_period)),)
+                                            barrier_rate(self.control_period, self.safety), now=now)),)
             result = filter_velocity(u.reshape(2), p, self._v, self.control_period, self.safety, self.obstacles,
                                      self.pusher_radius, self.polygons, extra)
             self.filtered += result.changed
@@ -168,7 +168,7 @@ class GuardedController:
             self.stopped += result.relaxed == "all"
             self._v = result.velocity
         if self.watch is not None:
-            self.watch.sent(self._v, (self.periods - 1) * self.control_period)
+            self.watch.sent(self._v, now)
         if self._position is None:
             self._p = p + self._v * self.control_period
         return self._v.copy()

@@ -108,7 +108,7 @@ class ObjectWatch:
     def reset(self) -> None:
         self._frames: deque[tuple[float, np.ndarray]] = deque()
         self._commands: deque[tuple[float, np.ndarray]] = deque()
-        self._pose: np.ndarray | None = None
+        self._footprint: list[np.ndarray] | None = None                      #: the newest frame's, placed
         self.J = np.zeros((len(self.obstacles) + len(self.polygons), 2))    #: ġ per unit of pusher velocity
         self.gaps = np.full(len(self.J), np.inf)                              #: the newest frame's gaps (m)
 
@@ -124,8 +124,8 @@ class ObjectWatch:
         over the window, learn the gaps' rates per unit of its velocity along that velocity."""
         if not self.active:
             return
-        self._pose = np.asarray(object_pose, dtype=np.float64).reshape(3)
-        self.gaps = object_gaps(self.shape.footprint_world(self._pose), self.obstacles, self.polygons)
+        self._footprint = self.shape.footprint_world(np.asarray(object_pose, dtype=np.float64).reshape(3))
+        self.gaps = object_gaps(self._footprint, self.obstacles, self.polygons)
         t1 = float(time)
         self._frames.append((t1, self.gaps))
         while self._frames and self._frames[0][0] < t1 - self.settings.window_s - 1e-9:
@@ -170,10 +170,10 @@ class ObjectWatch:
         frames' clock; None: the newest frame's time) with the pusher at ``pusher_xy``; none while the pusher is
         away from the footprint, or for an obstacle beyond ``watch_m`` or that no push has been seen to close."""
         none = (np.zeros((0, 2)), np.zeros(0))
-        if self._pose is None or not self._frames:
+        if self._footprint is None or not self._frames:
             return none
         s = self.settings
-        reach = distance_to_polygons(np.asarray(pusher_xy, dtype=np.float64), self.shape.footprint_world(self._pose))
+        reach = distance_to_polygons(np.asarray(pusher_xy, dtype=np.float64), self._footprint)
         if float(reach) > self.shape.pusher_radius + s.contact_m:
             return none
         age = 0.0 if now is None else float(np.clip(now - self._frames[-1][0], 0.0, s.window_s))
