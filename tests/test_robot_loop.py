@@ -409,3 +409,28 @@ def test_the_robot_benchmark_goes_on_past_an_episode_the_robot_cannot_start(tmp_
     monkeypatch.setattr(robot_sim, "run_robot_episode", reflex)
     with pytest.raises(SystemExit, match=r"^error: I rect seed 0: the robot stopped the episode: .*cartesian_reflex"):
         robot_sim.main()
+
+
+def test_the_robot_benchmarks_object_watch_needs_the_filter_and_a_folder_of_its_own(tmp_path, monkeypatch) -> None:
+    """``robot_sim.py --object-watch`` without the arm needs ``--with-filter`` (the watch is the filter's), and a
+    folder holding episodes without the watch refuses a run with it (docs/robot.md#the-objects-clearance)."""
+    import importlib.util
+    import json
+    import sys
+
+    spec = importlib.util.spec_from_file_location("robot_sim", Path(__file__).resolve().parents[1] / "benchmarks"
+                                                  / "robot_sim.py")
+    robot_sim = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(robot_sim)
+    argv = ["robot_sim.py", "--out", str(tmp_path), "--tasks", "III", "--seeds", "0", "--without-arm"]
+    monkeypatch.setattr(sys, "argv", [*argv, "--object-watch"])
+    with pytest.raises(SystemExit, match=r"^error: --object-watch is the filter's: with --without-arm give --with"):
+        robot_sim.main()
+    record = {"plant": "physics", "filtered": True, "reach": [0.36, 0.8], "bent_way_room_m": 0.01,
+              "workspace_margin": 0.4, "object_watch": False, "task": "III", "shape": "rect", "seed": 0}
+    (tmp_path / "records.jsonl").write_text(json.dumps(record) + "\n")
+    assert robot_sim.setup_of(record)["object watch"] == "off"
+    assert robot_sim.setup_of({**record, "object_watch": True})["object watch"] == "on"
+    monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--object-watch"])
+    with pytest.raises(SystemExit, match=r"holds episodes with another object watch than this run's"):
+        robot_sim.main()
