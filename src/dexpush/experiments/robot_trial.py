@@ -15,7 +15,7 @@ import numpy as np
 from dexpush.common.checks import check_nonnegative, check_positive
 from dexpush.common.se2 import rotate
 from dexpush.control.controller import ControllerSettings
-from dexpush.experiments.arm_room import bent_way_room, room_record
+from dexpush.experiments.arm_room import bent_way_room, room_record, way_room
 from dexpush.experiments.methods import Method, get_method
 from dexpush.experiments.records import Condition, Episode, make_episode
 from dexpush.experiments.runner import run_trial, trial_spec
@@ -363,13 +363,13 @@ def robot_sensor(sensor: Any, world: Any, middle: object) -> Any:
 def task_centre(problem: Problem, robot: RobotSettings, pose: object,
                 step: float = 0.005) -> tuple[float, float] | None:
     """Where :meth:`DriverSettings.facing` puts the task's middle for an episode that starts at ``pose``, on the
-    base's x axis at a distance c from it (``step`` apart); None (its default, the middle of the reach) for a task
-    with walls or a workspace of its own, whose bounds shape the ways.
+    base's x axis at a distance c from it (``step`` apart).
 
     With no obstacles, c gives the way the most room in the annulus :func:`robot_area` bounds the object by: the
     largest :func:`dexpush.experiments.arm_room.way_room` over ways that bend round the base by 0–20 cm
     (:func:`~dexpush.experiments.arm_room.bent_way_room`). A long push across the front fits the FR3's band only
-    bent (docs/robot.md#the-band-is-an-annulus).
+    bent (docs/robot.md#the-band-is-an-annulus). With walls or a workspace of its own (Task IV), whose bounds
+    leave no room for a bend, c gives the straight way the most room (docs/robot.md#task-ivs-place-on-the-arm).
 
     With discs alone, c is chosen among those at which the start's and the goal's footprints lie within that
     annulus where the narrower of the ways past each obstacle is widest: for each disc the wider of its two
@@ -377,14 +377,16 @@ def task_centre(problem: Problem, robot: RobotSettings, pose: object,
     maximised over c. The arm's annulus is wide enough for a detour on one side only; the obstacle then lies
     against the other.
     """
-    if problem.polygons or problem.workspace is not None:
-        return None
     r_min, r_max = robot.driver.reach
-    if not problem.obstacles:
+    walled = bool(problem.polygons) or problem.workspace is not None
+    if walled or not problem.obstacles:
         start, goal = np.asarray(pose)[:2], np.asarray(problem.goal)[:2]
-        rooms = [(bent_way_room(problem, robot, robot.driver.facing(start, goal, (float(c), 0.0)), pose)[0],
-                  round(float(c), 4)) for c in np.arange(r_min, r_max, step)]
-        return max(rooms)[1], 0.0
+
+        def room(c: float) -> float:
+            driver = robot.driver.facing(start, goal, (c, 0.0))
+            return way_room(problem, robot, driver, pose) if walled else bent_way_room(problem, robot, driver, pose)[0]
+
+        return max((room(float(c)), round(float(c), 4)) for c in np.arange(r_min, r_max, step))[1], 0.0
     pose = np.asarray(pose, dtype=np.float64)
     goal = np.asarray(problem.goal, dtype=np.float64)
     ends = np.concatenate([*problem.shape.footprint_world(pose), *problem.shape.footprint_world(goal)])
