@@ -1,12 +1,13 @@
-"""The figure of docs/robot.md#the-tasks-area-round-the-disc: Task III on the arm's problem, without the arm.
+"""The figures of docs/robot.md#the-tasks-area-round-the-disc and #task-ivs-place-on-the-arm: a task on the arm's
+problem, without the arm.
 
-    python docs/make_robot_figures.py [--shape tee] [--seed 0] [--margins 0.25,0.40]
+    python docs/make_robot_figures.py [--task III] [--shape tee] [--seed 0] [--margins 0.25,0.40]
 
 For each margin of the task's default area (:attr:`dexpush.experiments.robot_trial.RobotSettings.workspace_margin`),
-one episode of Task III placed and bounded as on the simulated FR3 (:func:`run_arm_problem`: the physics plant,
+one episode of the task placed and bounded as on the simulated FR3 (:func:`run_arm_problem`: the physics plant,
 the realistic camera, MPPI + UKF from the unknown λ, the pusher moving as commanded) is drawn over its cost-to-go
 (:func:`dexpush.viz.plot_guidance`, with the object's bound and the base's keep-out disc dashed):
-docs/figures/arm_III_<shape>_<seed>_area<margin>.png. About a minute for the two on 2 cores.
+docs/figures/arm_<task>_<shape>_<seed>_area<margin>.png. About a minute for two on 2 cores.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+import numpy as np
 
 from dexpush.cli.config import default_config
 from dexpush.experiments.registry import make_shape
@@ -32,23 +34,26 @@ FIGURES = Path(__file__).resolve().parent / "figures"
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--task", default="III", help="I, II, III or IV (default III)")
     p.add_argument("--shape", default="tee", help="rect, tee or ellipse (default tee)")
     p.add_argument("--seed", type=int, default=0, help="the trial's seed (default 0)")
     p.add_argument("--margins", default="0.25,0.40", help="comma-separated area margins in m (default 0.25,0.40)")
     args = p.parse_args()
-    task, shape = get_task("III"), make_shape(args.shape)
+    task, shape = get_task(args.task), make_shape(args.shape)
     settings = default_config().controller
     for margin in (float(m) for m in args.margins.split(",")):
         robot = replace(RobotSettings(), workspace_margin=margin)
         ep, _ = run_arm_problem(task, shape, seed=args.seed, settings=settings, robot=robot,
                                 sensor=SensorSettings.realistic(seed=0))
-        problem = place_on_arm(task, shape, robot, args.seed, settings.weights).problem
+        placed = place_on_arm(task, shape, robot, args.seed, settings.weights)
         r = ep.record
         outcome = "success" if r.success else f"failure, {r.final_error_m * 100:.0f} cm from the goal"
-        title = (f"Task III · {args.shape} · seed {args.seed} · the arm's band, area {margin:.2f} m round the task\n"
+        c = float(np.hypot(*placed.driver.to_base(np.asarray(placed.pose[:2] + placed.problem.goal[:2]) / 2)))
+        area = "its own area" if placed.task_problem.workspace is not None else f"area {margin:.2f} m round the task"
+        title = (f"Task {task.key} · {args.shape} · seed {args.seed} · the arm's band, {area}, c = {c:.3f} m\n"
                  f"{outcome} in {r.time_s:g} s")
-        path = FIGURES / f"arm_III_{args.shape}_{args.seed}_area{margin:.2f}.png"
-        plt.close(plot_guidance(shape, problem, ep.states, title=title, path=path))
+        path = FIGURES / f"arm_{task.key}_{args.shape}_{args.seed}_area{margin:.2f}.png"
+        plt.close(plot_guidance(shape, placed.problem, ep.states, title=title, path=path))
         print(f"{path}: {outcome}")
 
 
