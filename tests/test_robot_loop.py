@@ -271,7 +271,7 @@ def test_a_disc_task_is_placed_with_one_wide_way_round_its_obstacle(shape_name: 
 
 @pytest.mark.parametrize("shape_name", ["rect", "tee", "ellipse"])
 def test_a_walled_task_is_placed_where_its_straight_way_has_the_most_room(shape_name: str) -> None:
-    """Task IV (walls and a workspace of its own) on the arm: ``task_centre`` puts it where the straight way has
+    """Task IV (four walls round its area) on the arm: ``task_centre`` puts it where the straight way has
     the most room in the band: no less than at the band's middle (facing's default) or at any other distance
     from the base, to within half the placement's 5-mm step (the room moves no faster than the base); the T's way,
     which does not fit at the middle, fits there (docs/robot.md#task-ivs-place-on-the-arm)."""
