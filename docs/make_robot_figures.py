@@ -39,10 +39,14 @@ def main() -> None:
     p.add_argument("--seed", type=int, default=0, help="the trial's seed (default 0)")
     p.add_argument("--margins", default="0.25,0.40", help="comma-separated area margins in m (default 0.25,0.40)")
     args = p.parse_args()
-    task, shape = get_task(args.task), make_shape(args.shape)
+    try:
+        task, shape = get_task(args.task), make_shape(args.shape)
+        robots = [replace(RobotSettings(), workspace_margin=float(m)) for m in args.margins.split(",")]
+    except ValueError as exc:
+        p.error(str(exc))
     settings = default_config().controller
-    for margin in (float(m) for m in args.margins.split(",")):
-        robot = replace(RobotSettings(), workspace_margin=margin)
+    for robot in robots:
+        margin = robot.workspace_margin
         ep, _ = run_arm_problem(task, shape, seed=args.seed, settings=settings, robot=robot,
                                 sensor=SensorSettings.realistic(seed=0))
         placed = place_on_arm(task, shape, robot, args.seed, settings.weights)
