@@ -45,7 +45,7 @@ def test_overhang_success_is_the_depth_with_the_centre_of_mass_on_the_table() ->
     assert list(p.collides(states(np.array([[0.40, 0, 0], [0.46, 0, 0]])))) == [False, True]
     # the pusher stays on the table (the cost's own bound); the table's other edges bound the footprint too
     rows = lambda a: len(np.unique(np.asarray(a), axis=0))    # noqa: E731  (padding repeats a row)
-    assert rows(p.scene.pusher_bounds) == 1 and rows(p.scene.bounds) == 3
+    assert rows(p.scene.edge_bounds) == 1 and rows(p.scene.bounds) == 3
     assert p.table == TABLE
 
 

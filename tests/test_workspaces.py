@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from dexpush import Shape
@@ -152,6 +152,28 @@ def test_the_object_and_pusher_workspaces_bound_each_alone() -> None:
 
 
 @settings(max_examples=25, deadline=None)
+@given(st.floats(-0.02, 0.02), st.floats(0.0005, 0.02))
+def test_the_pusher_keeps_its_own_margin_from_its_own_bounds(gap: float, margin: float) -> None:
+    """The pusher's gap g to a bound of its own (a robot's reach) costs C_margin·(1 − g/m_p) within
+    ``pusher_bound_margin_m`` = m_p and C_pen past it, the workspace's edge (a table's) C_margin·(1 − g/m) within
+    ``obstacle_margin_m`` = m as before; a plan from inside either margin keeps the state's own gap as that margin."""
+    from dexpush.problem.cost import obstacle_cost, plan_margin
+    w = CostWeights(guidance=False, pusher_bound_margin_m=margin)
+    edge = 0.3 + RECT.pusher_radius
+    own = Problem(RECT, (0.0, 0.0, 0.0), weights=w, pusher_workspace=(-edge, -edge, edge, edge))
+    table = Problem(RECT, (0.0, 0.0, 0.0), weights=w, workspace=(-edge, -edge, edge, edge))
+    assume(abs(gap) > 1e-5)                                              # a touch or not, in float32 too
+    x = np.array([[0.0, 0.0, 0.0, 0.3 - gap, 0.0]], np.float32)        # the pusher's disc `gap` inside x = edge
+    for problem, field, m in ((own, "pusher_margin", margin), (table, "margin", w.obstacle_margin_m)):
+        got = float(np.asarray(obstacle_cost(x, problem.scene, w))[0])
+        expected = w.C_pen + w.C_margin if gap < 0 else w.C_margin * min(max(1.0 - gap / m, 0.0), 1.0)
+        assert got == pytest.approx(expected, rel=1e-4, abs=w.C_margin * 1e-4), (field, got, expected)
+        planned = plan_margin(x[0], problem.scene, w)
+        assert float(getattr(planned, field)) == pytest.approx(min(max(gap, 1e-4), m), abs=1e-6)
+    assert float(plan_margin(x[0], own.scene, w).margin) == pytest.approx(w.obstacle_margin_m)   # the other margin kept
+
+
+@settings(max_examples=25, deadline=None)
 @given(st.floats(-0.4, 0.4), st.floats(-0.4, 0.4), st.floats(-np.pi, np.pi), st.floats(0.0, 2 * np.pi))
 def test_a_keep_out_disc_charges_what_a_disc_obstacle_would_and_is_no_touch(x: float, y: float, th: float,
                                                                            phi: float) -> None:
@@ -165,8 +187,9 @@ def test_a_keep_out_disc_charges_what_a_disc_obstacle_would_and_is_no_touch(x: f
     keep = Problem(RECT, (0.6, 0.0, 0.0), weights=w, keep_out=((*centre, r_o, r_p),))
     body = Problem(RECT, (0.6, 0.0, 0.0), obstacles=((*centre, r_o),), weights=CostWeights(guidance=False))
     tip = Problem(RECT, (0.6, 0.0, 0.0), obstacles=((*centre, r_p),), weights=CostWeights(guidance=False))
-    from dexpush.problem.obstacles import bound_gaps
-    (gap_body, gap_pusher), = list(bound_gaps(state, keep.scene))
+    from dexpush.problem.obstacles import bound_gaps, pusher_bound_gaps
+    (gap_body, _), = list(bound_gaps(state, keep.scene))
+    gap_pusher, = list(pusher_bound_gaps(state, keep.scene))
     assert abs(float(gap_body[0]) - float(body.clearance(np.c_[state[:, :3], [[9.0, 9.0]]])[0])) < 1e-5
     assert abs(float(gap_pusher[0]) - float(tip.clearance(np.c_[[[9.0, 9.0, 0.0]], state[:, 3:]])[0])) < 1e-5
     local = state - np.array([[0.6, 0.0, 0.0, 0.6, 0.0]], np.float32)

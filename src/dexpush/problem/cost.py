@@ -25,7 +25,14 @@ from dexpush.common import fastmath
 from dexpush.model.cgvmm import State, components
 from dexpush.problem.goal_region import region_distance_sq
 from dexpush.problem.guidance import GRID_STRETCH
-from dexpush.problem.obstacles import clearance, nearest_obstacle_distances, overlaps, region_gaps
+from dexpush.problem.obstacles import (
+    clearance,
+    nearest_obstacle_distances,
+    overlaps,
+    pusher_bound_clearance,
+    pusher_bound_gaps,
+    region_gaps,
+)
 from dexpush.problem.scene import Scene
 from dexpush.problem.weights import CostWeights
 
@@ -171,12 +178,17 @@ def plan_margin(x: State, scene: Scene, w: CostWeights, extra: jnp.ndarray | flo
     """The scene for a plan that starts from state x: its margin is ``obstacle_margin_m`` + ``extra``
     (m; the controller's allowance for the error of a state predicted from a late frame), or the
     state's own clearance where that is less (at least :data:`MIN_PLAN_MARGIN_M`), so that a plan
-    from inside the margin is charged only for coming nearer than it already is. Unchanged without
-    ``C_margin`` (the binary margin) or without obstacles."""
+    from inside the margin is charged only for coming nearer than it already is; likewise the pusher's
+    margin from bounds of its own, ``pusher_bound_margin_m`` (no allowance: the pusher goes where it is
+    commanded). Unchanged without ``C_margin`` (the binary margin) or without obstacles."""
     if w.C_margin is None or w.obstacle_margin_m <= 0 or not scene.has_obstacles:
         return scene
-    m = jnp.clip(clearance(x, scene), MIN_PLAN_MARGIN_M, w.obstacle_margin_m + extra)
-    return dataclasses.replace(scene, margin=m.astype(scene.margin.dtype))
+    m = jnp.clip(clearance(x, scene, pusher_bounds=False), MIN_PLAN_MARGIN_M, w.obstacle_margin_m + extra)
+    scene = dataclasses.replace(scene, margin=m.astype(scene.margin.dtype))
+    if not (scene.pusher_bounds.shape[0] or scene.keep_out.shape[0]):
+        return scene
+    m_p = jnp.clip(pusher_bound_clearance(x, scene), MIN_PLAN_MARGIN_M, w.pusher_bound_margin_m)
+    return dataclasses.replace(scene, pusher_margin=m_p.astype(scene.pusher_margin.dtype))
 
 
 def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
@@ -191,7 +203,9 @@ def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
     away, but not nearer. With ``C_margin`` None every state within ``obstacle_margin_m`` costs
     C_pen, the collision test of (9e) on discs grown by it: from inside the margin every sample
     then cost C_pen per slot until out, and the planner took the quickest way out, through the
-    disc if need be (docs/controller.md#the-margin).
+    disc if need be (docs/controller.md#the-margin). The pusher's gaps to bounds of its own
+    (:func:`dexpush.problem.obstacles.pusher_bound_gaps`: a robot's reach) are charged in the same way
+    against its own margin, ``scene.pusher_margin`` (docs/robot.md#the-pushers-margin-at-the-reach).
     """
     xb = components(x)[0]
     touch = jnp.zeros(jnp.shape(xb), dtype=bool)
@@ -220,6 +234,10 @@ def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
         touch = touch | (gap < (0.0 if graded else w.obstacle_margin_m))
         if graded:
             depth = depth + jnp.clip(1.0 - gap / scene.margin, 0.0, 1.0)
+    for gap in pusher_bound_gaps(x, scene):          # the pusher's own bounds (a robot's reach): its own margin
+        touch = touch | (gap < (0.0 if graded else w.pusher_bound_margin_m))
+        if graded:
+            depth = depth + jnp.clip(1.0 - gap / scene.pusher_margin, 0.0, 1.0)
     cost = jnp.where(touch, w.C_pen, 0.0)
     return cost + w.C_margin * depth if graded else cost
 

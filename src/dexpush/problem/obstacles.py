@@ -36,7 +36,7 @@ EXACT_NEAREST_DISCS = 3
 
 __all__ = ["EXACT_NEAREST_DISCS", "UNROLL_CORNERS", "bound_gaps", "clearance", "clearance_jit", "collides",
            "collides_jit", "nearest_obstacle_distances", "obstacle_distances", "overlaps",
-           "polygon_gaps", "region_gaps"]
+           "polygon_gaps", "pusher_bound_clearance", "pusher_bound_gaps", "region_gaps"]
 
 
 def obstacle_distances(x: State, scene: Scene):
@@ -217,9 +217,10 @@ def _max(a: jnp.ndarray | None, b: jnp.ndarray) -> jnp.ndarray:
 def bound_gaps(x: State, scene: Scene):
     """Per workspace half-plane n·p ≤ o, the gaps (m) of the footprint (the least o − n·v over its outline's
     corners v) and of the pusher: (footprint gap, pusher gap), each (...,); then per half-plane of the
-    object's own bounds, (footprint gap, +inf), per half-plane of the pusher's, (+inf, pusher gap), and per
-    keep-out disc (centre o, radii r_o and r_p) (d(o, outline) − r_o, or −r_o with o inside the footprint;
-    ‖p_c − o‖ − r_p − pusher radius): a bound the footprint and the pusher stay out of, exact like a disc's gap."""
+    object's own bounds, (footprint gap, +inf), per half-plane of the table's edge the pusher alone keeps
+    within (``scene.edge_bounds``), (+inf, pusher gap), and per keep-out disc (centre o, radius r_o),
+    (d(o, outline) − r_o, or −r_o with o inside the footprint; +inf): a bound the footprint and the pusher stay
+    out of, exact like a disc's gap. The pusher's gaps to its own bounds are :func:`pusher_bound_gaps`."""
     xb, yb, th, xc, yc = components(x)
     s, c = fastmath.sincos(th)
     a = scene.edge_a
@@ -233,15 +234,28 @@ def bound_gaps(x: State, scene: Scene):
     for h in range(scene.object_bounds.shape[0]):                     # the object's own bounds: no pusher
         body = footprint_gap(scene.object_bounds[h, 0], scene.object_bounds[h, 1], scene.object_bounds[h, 2])
         yield body, jnp.full_like(body, jnp.inf)
-    for h in range(scene.pusher_bounds.shape[0]):                     # the pusher's own bounds: no footprint
-        nx, ny, o = scene.pusher_bounds[h, 0], scene.pusher_bounds[h, 1], scene.pusher_bounds[h, 2]
+    for h in range(scene.edge_bounds.shape[0]):                       # the table's edge: no footprint
+        nx, ny, o = scene.edge_bounds[h, 0], scene.edge_bounds[h, 1], scene.edge_bounds[h, 2]
         pusher = o - nx * xc - ny * yc - scene.pusher_radius
         yield jnp.full_like(pusher, jnp.inf), pusher
-    for k in range(scene.keep_out.shape[0]):          # keep-out discs: the footprint's gap and the pusher's
-        ox, oy, r_body, r_pusher = (scene.keep_out[k, i] for i in range(4))
+    for k in range(scene.keep_out.shape[0]):          # keep-out discs: the footprint's gap
+        ox, oy, r_body = scene.keep_out[k, 0], scene.keep_out[k, 1], scene.keep_out[k, 2]
         d2, inside = _centre_to_outline(ox, oy, xb, yb, s, c, a, scene.edge_b)
         body = jnp.where(inside, -r_body, jnp.sqrt(d2) - r_body)
-        yield body, jnp.sqrt((xc - ox) ** 2 + (yc - oy) ** 2) - r_pusher - scene.pusher_radius
+        yield body, jnp.full_like(body, jnp.inf)
+
+
+def pusher_bound_gaps(x: State, scene: Scene):
+    """The pusher's gaps (m) to bounds of its own, each (...,): per half-plane n·p ≤ o of ``scene.pusher_bounds``
+    (a robot arm's reach) o − n·p_c − r, and per keep-out disc (centre o, pusher radius r_p; the arm's inner
+    reach) ‖p_c − o‖ − r_p − r, r the pusher's radius. The planner keeps ``scene.pusher_margin`` from them."""
+    _, _, _, xc, yc = components(x)
+    for h in range(scene.pusher_bounds.shape[0]):
+        nx, ny, o = scene.pusher_bounds[h, 0], scene.pusher_bounds[h, 1], scene.pusher_bounds[h, 2]
+        yield o - nx * xc - ny * yc - scene.pusher_radius
+    for k in range(scene.keep_out.shape[0]):
+        ox, oy, r_pusher = scene.keep_out[k, 0], scene.keep_out[k, 1], scene.keep_out[k, 3]
+        yield jnp.sqrt((xc - ox) ** 2 + (yc - oy) ** 2) - r_pusher - scene.pusher_radius
 
 
 def region_gaps(x: State, scene: Scene):
@@ -263,6 +277,8 @@ def collides(x: State, scene: Scene, margin: float = 0.0) -> jnp.ndarray:
         hit = hit | overlaps(r + margin, d2, inside, pd2, scene.pusher_radius)
     for body, pusher in region_gaps(x, scene):
         hit = hit | (jnp.minimum(body, pusher) < margin)
+    for pusher in pusher_bound_gaps(x, scene):
+        hit = hit | (pusher < margin)
     return hit
 
 
@@ -272,16 +288,27 @@ def overlaps(r: jnp.ndarray, d2: jnp.ndarray, inside: jnp.ndarray, pd2: jnp.ndar
     return (d2 < r * r) | inside | (pd2 < (r + pusher_radius) ** 2)
 
 
-def clearance(x: State, scene: Scene) -> jnp.ndarray:
+def clearance(x: State, scene: Scene, pusher_bounds: bool = True) -> jnp.ndarray:
     """The smallest gap (m) between any obstacle and the object's footprint or the pusher's disc, or
-    between either and the workspace's boundary; (...,). Zero or less is a touch (a disc wholly inside
-    the footprint counts as −radius); +inf without obstacles."""
+    between either and the workspace's boundary, and (with ``pusher_bounds``) between the pusher and bounds of
+    its own (:func:`pusher_bound_gaps`); (...,). Zero or less is a touch (a disc wholly inside the footprint
+    counts as −radius); +inf without obstacles."""
     gap = jnp.full(jnp.shape(components(x)[0]), jnp.inf, dtype=jnp.result_type(components(x)[0], jnp.float32))
     for _, r, d2, inside, pd2 in obstacle_distances(x, scene):
         body = jnp.where(inside, -r, jnp.sqrt(d2) - r)
         gap = jnp.minimum(gap, jnp.minimum(body, jnp.sqrt(pd2) - r - scene.pusher_radius))
     for body, pusher in region_gaps(x, scene):
         gap = jnp.minimum(gap, jnp.minimum(body, pusher))
+    if pusher_bounds:
+        gap = jnp.minimum(gap, pusher_bound_clearance(x, scene))
+    return gap
+
+
+def pusher_bound_clearance(x: State, scene: Scene) -> jnp.ndarray:
+    """The smallest of :func:`pusher_bound_gaps` (m), (...,); +inf where the pusher has no bounds of its own."""
+    gap = jnp.full(jnp.shape(components(x)[0]), jnp.inf, dtype=jnp.result_type(components(x)[0], jnp.float32))
+    for pusher in pusher_bound_gaps(x, scene):
+        gap = jnp.minimum(gap, pusher)
     return gap
 
 

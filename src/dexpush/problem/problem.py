@@ -165,11 +165,11 @@ class Problem:
         for name, rows in own.items():
             put(self, name, None if rows is None else tuple((float(x), float(y)) for x, y in halfplane_corners(rows)))
         object_bounds, pusher_bounds = own["object_workspace"], own["pusher_workspace"]
+        edge_bounds = None
         if goal_rows is not None and goal_rows.edge:
             # an overhang's edge bounds the pusher alone: the footprint may cross it
             edge = np.all(np.isclose(bounds, goal_rows.keep[:1, :3]), axis=1)
-            pusher_bounds = bounds[edge] if pusher_bounds is None else np.concatenate([pusher_bounds, bounds[edge]])
-            bounds = bounds[~edge]
+            edge_bounds, bounds = bounds[edge], bounds[~edge]
         put(self, "region", region)
         put(self, "region_rows", goal_rows)
         guide = None
@@ -187,7 +187,7 @@ class Problem:
         put(self, "contour", Contour.of(self.shape))
         put(self, "scene", Scene.make(self.shape, goal, discs, self.weights, COST_OUTLINE_EDGES, polys, bounds,
                                       guide, self.pad_to, COST_PIECE_CORNERS, object_bounds,
-                                      pusher_bounds, goal_rows, keep_out))
+                                      pusher_bounds, goal_rows, keep_out, edge_bounds))
         put(self, "origin", origin)
         shift = origin * [1.0, 1.0, 0.0]
         # a half-plane n·p ≤ o seen from the origin: n·(p − origin) ≤ o − n·origin
@@ -200,7 +200,8 @@ class Problem:
                                             COST_PIECE_CORNERS, seen_from_origin(object_bounds),
                                             seen_from_origin(pusher_bounds),
                                             None if goal_rows is None else goal_rows.shifted(origin),
-                                            keep_out - np.array([*origin[:2], 0.0, 0.0])))
+                                            keep_out - np.array([*origin[:2], 0.0, 0.0]),
+                                            seen_from_origin(edge_bounds)))
         put(self, "judge_scene", Scene.make(self.shape, goal, discs, self.weights, None, polys, bounds,
                                             pad_to=self.pad_to, region=goal_rows))
         if region is None or isinstance(region, PoseBox):     # (a region's own pose is only a marker)

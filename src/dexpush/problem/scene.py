@@ -70,7 +70,8 @@ class Scene:
     #: (H', 3) half-planes [n_x, n_y, o] the footprint alone stays within (where a robot's pusher can get round
     #: it); H' may be 0
     object_bounds: jnp.ndarray = None  # type: ignore[assignment]
-    #: (H'', 3) half-planes the pusher alone stays within (a robot arm's reach); H'' may be 0
+    #: (H'', 3) half-planes the pusher alone stays within, ``pusher_margin`` from them (a robot arm's reach, which
+    #: its safety filter holds); H'' may be 0
     pusher_bounds: jnp.ndarray = None  # type: ignore[assignment]
     #: a goal region (:mod:`dexpush.problem.goal_region`): (G, 4) reach rows and (K, 4) keep rows [n_x, n_y, o, δ],
     #: the (2,) point in {B} the keep rows hold, the footprint's (C, 2) corners in {B} its success test reads, and
@@ -83,6 +84,13 @@ class Scene:
     #: (R, 4) discs [c_x, c_y, r_object, r_pusher] the footprint keeps r_object clear of and the pusher's disc
     #: r_pusher clear of (a robot arm's inner reach round its base); R may be 0
     keep_out: jnp.ndarray = None  # type: ignore[assignment]
+    #: the margin (m) this plan keeps the pusher from bounds of its own (``pusher_bounds``, the keep-out discs'
+    #: r_pusher): ``CostWeights.pusher_bound_margin_m``, or less where the pusher is already nearer
+    #: (:func:`dexpush.problem.cost.plan_margin`)
+    pusher_margin: jnp.ndarray = None  # type: ignore[assignment]
+    #: (H''', 3) half-planes the pusher alone stays within at the obstacles' ``margin`` (an overhang goal's table
+    #: edge, which the footprint may cross); H''' may be 0
+    edge_bounds: jnp.ndarray = None  # type: ignore[assignment]
 
     @property
     def has_region(self) -> bool:
@@ -93,7 +101,8 @@ class Scene:
     def has_obstacles(self) -> bool:
         """Whether there is anything to keep clear of: a disc, a polygon or a workspace boundary."""
         return bool(self.obstacles.shape[0] or self.polygons.shape[0] or self.bounds.shape[0]
-                    or self.object_bounds.shape[0] or self.pusher_bounds.shape[0] or self.keep_out.shape[0])
+                    or self.object_bounds.shape[0] or self.pusher_bounds.shape[0] or self.keep_out.shape[0]
+                    or self.edge_bounds.shape[0])
 
     @staticmethod
     def make(shape: Shape, goal: object, obstacles: object = (), weights: CostWeights | None = None,
@@ -101,7 +110,7 @@ class Scene:
              bounds: np.ndarray | None = None, guide: CostToGo | None = None,
              pad_to: tuple[int, int] = (0, 0), max_piece_corners: int = JUDGE_PIECE_CORNERS,
              object_bounds: np.ndarray | None = None, pusher_bounds: np.ndarray | None = None,
-             region: RegionRows | None = None, keep_out: object = ()) -> Scene:
+             region: RegionRows | None = None, keep_out: object = (), edge_bounds: np.ndarray | None = None) -> Scene:
         """The cost's view of a task; with ``max_edges``, the footprint's outline has at most that many
         edges where the footprint is convex (:meth:`dexpush.model.shape.Shape.outline_edges`), and its
         convex pieces (what the polygon gaps see) at most ``max_piece_corners`` corners.
@@ -109,7 +118,8 @@ class Scene:
         :func:`dexpush.problem.regions.convex_polygon`), ``bounds`` the workspace's half-planes
         (:func:`dexpush.problem.regions.workspace_halfplanes`), ``object_bounds`` and ``pusher_bounds`` the
         half-planes that bound the object alone (where a robot's pusher can get round it) and the pusher alone
-        (the arm's reach), ``keep_out`` discs (c_x, c_y, r_object, r_pusher) about which the footprint stays
+        (the arm's reach), ``edge_bounds`` half-planes that bound the pusher alone at the obstacles' margin (an
+        overhang goal's table edge), ``keep_out`` discs (c_x, c_y, r_object, r_pusher) about which the footprint stays
         r_object and the pusher's disc r_pusher away (the arm's inner reach), ``guide`` the cost-to-go,
         ``region`` a goal region's rows (the goal distance is then to the region, with no detour:
         :func:`dexpush.problem.cost.goal_distance_sq`), all in the frame of ``goal``. ``pad_to`` (discs, polygons): add
@@ -143,7 +153,8 @@ class Scene:
             rho = np.minimum(obs[:, 2] + w.obstacle_margin_m + reach, np.hypot(*(g[None, :2] - obs[:, :2]).T))
         poly, planes = padded_polygons(polygons)
         pieces, piece_planes = padded_polygons(footprint_pieces(shape, max_piece_corners))
-        bounds, object_bounds, pusher_bounds = (padded_rows(b) for b in (bounds, object_bounds, pusher_bounds))
+        bounds, object_bounds, pusher_bounds, edge_bounds = (padded_rows(b) for b in (bounds, object_bounds,
+                                                                                     pusher_bounds, edge_bounds))
         keep_out = keep_out_array(keep_out)
         values, lo, cell = (np.zeros((0, 0, 0)), np.zeros(2), 1.0) if guide is None else (guide.values, guide.lo,
                                                                                            guide.cell)
@@ -159,14 +170,15 @@ class Scene:
                      jnp.asarray(poly), jnp.asarray(planes), jnp.asarray(bounds), jnp.asarray(pieces),
                      jnp.asarray(piece_planes), f32(values), f32(lo), f32(cell), jnp.asarray(object_bounds),
                      jnp.asarray(pusher_bounds), jnp.asarray(reach), jnp.asarray(keep), jnp.asarray(point),
-                     jnp.asarray(corners), jnp.asarray(heading), jnp.asarray(keep_out))
+                     jnp.asarray(corners), jnp.asarray(heading), jnp.asarray(keep_out),
+                     pusher_margin=jnp.asarray(w.pusher_bound_margin_m), edge_bounds=jnp.asarray(edge_bounds))
 
 
 jax.tree_util.register_dataclass(
     Scene, data_fields=["goal", "obstacles", "edge_a", "edge_b", "r_s", "detour_radius", "margin", "polygons",
                         "polygon_planes", "bounds", "pieces", "piece_planes", "guide", "guide_lo", "guide_cell",
                         "object_bounds", "pusher_bounds", "reach", "keep", "keep_point", "region_corners",
-                        "heading_weight", "keep_out"],
+                        "heading_weight", "keep_out", "pusher_margin", "edge_bounds"],
     meta_fields=["pusher_radius"])
 
 

@@ -27,6 +27,11 @@ class CostWeights:
     #: cost (9e) uses discs grown by it, so a prediction error of up to this much at the obstacle does
     #: not become a touch. A trial still fails only on a real touch (radius as given).
     obstacle_margin_m: float = 0.01
+    #: ... and the pusher this far (m) from bounds of its own (a robot arm's reach: ``Problem.pusher_workspace``
+    #: and the keep-out discs' pusher radius), which the robot's safety filter holds exactly and where only the
+    #: arm's tracking error (p99 3.4 mm on the simulated FR3) can err: the object's margin there left the pusher
+    #: too little room behind an object near the reach's edge. See docs/robot.md#the-pushers-margin-at-the-reach.
+    pusher_bound_margin_m: float = 0.003
     #: measure the goal distance of d² round the obstacles (:func:`detour_length_sq`) instead of
     #: straight through them (default); False is the paper's eq. (9) as written.
     #: See docs/controller.md#going-round-obstacles-detour.
@@ -62,6 +67,7 @@ class CostWeights:
         for name in ("r_s", "C_pen"):
             check_positive(name, getattr(self, name))
         check_nonnegative("obstacle_margin_m", self.obstacle_margin_m, "m")
+        check_positive("pusher_bound_margin_m", self.pusher_bound_margin_m, "m")
         check_positive("guidance_cell_m", self.guidance_cell_m, "m")
         if not 0.005 <= self.guidance_cell_m <= 0.1:
             raise ValueError(f"guidance_cell_m must be between 0.005 and 0.1 m, got {self.guidance_cell_m!r}")
