@@ -1,13 +1,19 @@
-"""The figures of docs/robot.md#the-tasks-area-round-the-disc and #task-ivs-place-on-the-arm: a task on the arm's
-problem, without the arm.
+"""The figures of docs/robot.md#the-tasks-area-round-the-disc, #task-ivs-place-on-the-arm and
+#the-pushers-margin-at-the-reach: a task on the arm's problem, without the arm.
 
     python docs/make_robot_figures.py [--task III] [--shape tee] [--seed 0] [--margins 0.25,0.40]
+    python docs/make_robot_figures.py --task II --shape tee --seed 11 --endgame 18 [--name after]
 
 For each margin of the task's default area (:attr:`dexpush.experiments.robot_trial.RobotSettings.workspace_margin`),
 one episode of the task placed and bounded as on the simulated FR3 (:func:`run_arm_problem`: the physics plant,
 the realistic camera, MPPI + UKF from the unknown λ, the pusher moving as commanded) is drawn over its cost-to-go
 (:func:`dexpush.viz.plot_guidance`, with the object's bound and the base's keep-out disc dashed):
 docs/figures/arm_<task>_<shape>_<seed>_area<margin>.png. About a minute for two on 2 cores.
+
+With ``--endgame S`` the episode runs behind the robot's safety filter (as ``benchmarks/robot_sim.py
+--without-arm --with-filter``) and the figure is the end of it from S seconds on, near the goal: the object's and
+the pusher's bounds dashed, the pusher's path coloured by time, the object's end filled:
+docs/figures/arm_<task>_<shape>_<seed>_endgame[_<name>].png.
 """
 
 from __future__ import annotations
@@ -38,13 +44,23 @@ def main() -> None:
     p.add_argument("--shape", default="tee", help="rect, tee or ellipse (default tee)")
     p.add_argument("--seed", type=int, default=0, help="the trial's seed (default 0)")
     p.add_argument("--margins", default="0.25,0.40", help="comma-separated area margins in m (default 0.25,0.40)")
+    p.add_argument("--endgame", type=float, default=None, metavar="S",
+                   help="draw the episode behind the safety filter from S seconds on, near the goal")
+    p.add_argument("--name", default="", help="a suffix for the endgame figure's file name")
     args = p.parse_args()
     try:
         task, shape = get_task(args.task), make_shape(args.shape)
         robots = [replace(RobotSettings(), workspace_margin=float(m)) for m in args.margins.split(",")]
+        if args.endgame is not None and not args.endgame >= 0:
+            raise ValueError(f"--endgame must be a time in seconds >= 0, got {args.endgame!r}")
+        if any(not np.isfinite(r.workspace_margin) for r in robots):
+            raise ValueError(f"--margins must be finite, got {args.margins!r}")
     except ValueError as exc:
         p.error(str(exc))
     settings = default_config().controller
+    if args.endgame is not None:
+        endgame(task, shape, args.seed, robots[-1], settings, args.endgame, args.name)
+        return
     for robot in robots:
         margin = robot.workspace_margin
         ep, _ = run_arm_problem(task, shape, seed=args.seed, settings=settings, robot=robot,
@@ -59,6 +75,42 @@ def main() -> None:
         path = FIGURES / f"arm_{task.key}_{args.shape}_{args.seed}_area{margin:.2f}.png"
         plt.close(plot_guidance(shape, placed.problem, ep.states, title=title, path=path))
         print(f"{path}: {outcome}")
+
+
+def endgame(task: object, shape: object, seed: int, robot: RobotSettings, settings: object, since_s: float,
+            name: str) -> None:
+    """The end of one episode behind the safety filter, from ``since_s`` on, near the goal."""
+    ep, _ = run_arm_problem(task, shape, seed=seed, settings=settings, robot=robot,
+                            sensor=SensorSettings.realistic(seed=0), filtered=True)
+    placed = place_on_arm(task, shape, robot, seed, settings.weights)
+    problem, r, X = placed.problem, ep.record, np.asarray(ep.states)
+    first = min(round(since_s / settings.mppi.control_period), len(X) - 1)
+    fig, ax = plt.subplots(figsize=(6.5, 5.5))
+    for corners, colour, label in ((problem.object_workspace, "k", "object's bound"),
+                                   (problem.pusher_workspace, "#1f77b4", "pusher's bound")):
+        c = np.asarray(corners)
+        ax.plot(*np.vstack([c, c[:1]]).T, ls="--", color=colour, lw=1.2, label=label)
+    for i, poly in enumerate(shape.footprint_world(np.asarray(problem.goal))):
+        ax.plot(*np.vstack([poly, poly[:1]]).T, color="#d62728", lw=1.5, label=None if i else "goal")
+    for i, poly in enumerate(shape.footprint_world(X[-1, :3])):
+        ax.fill(*poly.T, color="0.6", alpha=0.6, label=None if i else "end")
+    t = np.arange(first, len(X)) * settings.mppi.control_period
+    path = ax.scatter(X[first:, 3], X[first:, 4], c=t, s=3, cmap="viridis", label="pusher")
+    fig.colorbar(path, ax=ax, label="time (s)")
+    ax.plot(X[first:, 0], X[first:, 1], "k-", lw=1.2, label="object's reference")
+    g = np.asarray(problem.goal[:2])
+    half = 1.3 * shape.bounding_radius
+    ax.set_xlim(g[0] - half, g[0] + half)
+    ax.set_ylim(g[1] - half, g[1] + half)
+    ax.set_aspect("equal")
+    ax.legend(loc="lower left", fontsize=7)
+    outcome = "success" if r.success else f"failure, {r.final_error_m * 100:.1f} cm from the goal"
+    ax.set_title(f"Task {task.key} · {shape.name} · seed {seed} · behind the filter, from {t[0]:g} s\n"
+                 f"{outcome} at {r.time_s:g} s", fontsize=9)
+    path = FIGURES / f"arm_{task.key}_{shape.name}_{seed}_endgame{'_' + name if name else ''}.png"
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    print(f"{path}: {outcome}")
 
 
 if __name__ == "__main__":

@@ -29,7 +29,7 @@ class CostWeights:
     obstacle_margin_m: float = 0.01
     #: ... and the pusher this far (m) from bounds of its own (a robot arm's reach: ``Problem.pusher_workspace``
     #: and the keep-out discs' pusher radius), which the robot's safety filter holds exactly and where only the
-    #: arm's tracking error (p99 3.4 mm on the simulated FR3) can err: the object's margin there left the pusher
+    #: arm's tracking error (p99 3.2–3.9 mm on the simulated FR3) can err: the object's margin there left the pusher
     #: too little room behind an object near the reach's edge. See docs/robot.md#the-pushers-margin-at-the-reach.
     pusher_bound_margin_m: float = 0.003
     #: measure the goal distance of d² round the obstacles (:func:`detour_length_sq`) instead of
