@@ -184,11 +184,9 @@ def plan_margin(x: State, scene: Scene, w: CostWeights, extra: jnp.ndarray | flo
     if w.C_margin is None or w.obstacle_margin_m <= 0 or not scene.has_obstacles:
         return scene
     m = jnp.clip(clearance(x, scene, pusher_bounds=False), MIN_PLAN_MARGIN_M, w.obstacle_margin_m + extra)
-    scene = dataclasses.replace(scene, margin=m.astype(scene.margin.dtype))
-    if not (scene.pusher_bounds.shape[0] or scene.keep_out.shape[0]):
-        return scene
     m_p = jnp.clip(pusher_bound_clearance(x, scene), MIN_PLAN_MARGIN_M, w.pusher_bound_margin_m)
-    return dataclasses.replace(scene, pusher_margin=m_p.astype(scene.pusher_margin.dtype))
+    return dataclasses.replace(scene, margin=m.astype(scene.margin.dtype),
+                               pusher_margin=m_p.astype(scene.pusher_margin.dtype))
 
 
 def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
