@@ -51,8 +51,8 @@ def main() -> None:
     try:
         task, shape = get_task(args.task), make_shape(args.shape)
         robots = [replace(RobotSettings(), workspace_margin=float(m)) for m in args.margins.split(",")]
-        if args.endgame is not None and not args.endgame >= 0:
-            raise ValueError(f"--endgame must be a time in seconds >= 0, got {args.endgame!r}")
+        if args.endgame is not None and not 0 <= args.endgame < np.inf:
+            raise ValueError(f"--endgame must be a finite time in seconds >= 0, got {args.endgame!r}")
         if any(not np.isfinite(r.workspace_margin) for r in robots):
             raise ValueError(f"--margins must be finite, got {args.margins!r}")
     except ValueError as exc:
