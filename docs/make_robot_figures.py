@@ -32,7 +32,7 @@ from dexpush.cli.config import default_config
 from dexpush.experiments.registry import make_shape
 from dexpush.experiments.robot_trial import RobotSettings, place_on_arm, run_arm_problem
 from dexpush.experiments.scenarios import get_task
-from dexpush.viz import plot_guidance
+from dexpush.viz import plot_endgame, plot_guidance
 from dexpush.world.sensing import SensorSettings
 
 FIGURES = Path(__file__).resolve().parent / "figures"
@@ -83,33 +83,13 @@ def endgame(task: object, shape: object, seed: int, robot: RobotSettings, settin
     ep, _ = run_arm_problem(task, shape, seed=seed, settings=settings, robot=robot,
                             sensor=SensorSettings.realistic(seed=0), filtered=True)
     placed = place_on_arm(task, shape, robot, seed, settings.weights)
-    problem, r, X = placed.problem, ep.record, np.asarray(ep.states)
-    first = min(round(since_s / settings.mppi.control_period), len(X) - 1)
-    fig, ax = plt.subplots(figsize=(6.5, 5.5))
-    for corners, colour, label in ((problem.object_workspace, "k", "object's bound"),
-                                   (problem.pusher_workspace, "#1f77b4", "pusher's bound")):
-        c = np.asarray(corners)
-        ax.plot(*np.vstack([c, c[:1]]).T, ls="--", color=colour, lw=1.2, label=label)
-    for i, poly in enumerate(shape.footprint_world(np.asarray(problem.goal))):
-        ax.plot(*np.vstack([poly, poly[:1]]).T, color="#d62728", lw=1.5, label=None if i else "goal")
-    for i, poly in enumerate(shape.footprint_world(X[-1, :3])):
-        ax.fill(*poly.T, color="0.6", alpha=0.6, label=None if i else "end")
-    t = np.arange(first, len(X)) * settings.mppi.control_period
-    path = ax.scatter(X[first:, 3], X[first:, 4], c=t, s=3, cmap="viridis", label="pusher")
-    fig.colorbar(path, ax=ax, label="time (s)")
-    ax.plot(X[first:, 0], X[first:, 1], "k-", lw=1.2, label="object's reference")
-    g = np.asarray(problem.goal[:2])
-    half = 1.3 * shape.bounding_radius
-    ax.set_xlim(g[0] - half, g[0] + half)
-    ax.set_ylim(g[1] - half, g[1] + half)
-    ax.set_aspect("equal")
-    ax.legend(loc="lower left", fontsize=7)
+    r, T = ep.record, settings.mppi.control_period
+    first = min(round(since_s / T), len(ep.states) - 1)
     outcome = "success" if r.success else f"failure, {r.final_error_m * 100:.1f} cm from the goal"
-    ax.set_title(f"Task {task.key} · {shape.name} · seed {seed} · behind the filter, from {t[0]:g} s\n"
-                 f"{outcome} at {r.time_s:g} s", fontsize=9)
+    title = (f"Task {task.key} · {shape.name} · seed {seed} · behind the filter, from {first * T:g} s\n"
+             f"{outcome} at {r.time_s:g} s")
     path = FIGURES / f"arm_{task.key}_{shape.name}_{seed}_endgame{'_' + name if name else ''}.png"
-    fig.savefig(path, dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    plt.close(plot_endgame(shape, placed.problem, ep.states, first, T, title=title, path=path))
     print(f"{path}: {outcome}")
 
 

@@ -399,6 +399,35 @@ def test_the_guidance_figure_draws_the_arms_bounds(tmp_path) -> None:
     assert (tmp_path / "g.png").stat().st_size > 10_000
 
 
+def test_the_endgame_figure_draws_both_bounds_and_the_pushers_path_from_its_first_step(tmp_path) -> None:
+    """``plot_endgame`` draws the object's and the pusher's bounds dashed (one legend entry each) and the pusher's
+    path from step ``first`` on; a ``first`` past the end keeps the last step."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from dexpush.experiments.registry import make_shape
+    from dexpush.experiments.robot_trial import RobotSettings, place_on_arm
+    from dexpush.experiments.scenarios import get_task
+    from dexpush.viz import plot_endgame
+
+    shape = make_shape("tee")
+    placed = place_on_arm(get_task("II"), shape, RobotSettings(), 0)
+    goal = np.asarray(placed.problem.goal, dtype=float)
+    step = 0.01 * np.arange(10)[:, None] * np.array([1.0, 0.0, 0.0])
+    states = np.hstack([goal + step, goal[:2] + step[:, :2] - [0.1, 0.0]])      # the pusher 10 cm behind
+    for first, points in ((4, 6), (99, 1)):
+        fig = plot_endgame(shape, placed.problem, states, first, title="t", path=tmp_path / f"e{first}.png")
+        ax = fig.axes[0]
+        dashed = [p for p in ax.patches if p.get_linestyle() == "--" and not p.get_fill()]
+        labels = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert len(dashed) == 2 and labels.count("object's bound") == labels.count("pusher's bound") == 1
+        assert len(ax.collections[0].get_offsets()) == points
+        plt.close(fig)
+        assert (tmp_path / f"e{first}.png").stat().st_size > 10_000
+
+
 def test_the_robot_benchmark_goes_on_past_an_episode_the_robot_cannot_start(tmp_path, monkeypatch, capsys) -> None:
     """An episode whose start the arm cannot reach (a move its motion planner refuses) is not recorded: the
     benchmark says so in one line, runs the rest, and ends with an error naming the episodes a re-run retries.

@@ -20,8 +20,8 @@ from dexpush.common.interfaces import CONTROL_PERIOD_S
 from dexpush.model.cgvmm import MODE_NAMES
 from dexpush.model.shape import Shape
 
-__all__ = ["animate_episode", "draw_obstacles", "plot_condition", "plot_confusion", "plot_episode", "plot_fit",
-           "plot_guidance", "plot_layouts", "plot_mode_decisions", "plot_online_lambda", "plot_params",
+__all__ = ["animate_episode", "draw_obstacles", "plot_condition", "plot_confusion", "plot_endgame", "plot_episode",
+           "plot_fit", "plot_guidance", "plot_layouts", "plot_mode_decisions", "plot_online_lambda", "plot_params",
            "plot_shapes", "save_figure_atomic", "write_video"]
 
 MODE_COLORS = {"stick": "#e6a800", "slide_ccw": "#2ca02c", "slide_cw": "#1f77b4", "free": "#d62728",
@@ -211,6 +211,38 @@ def plot_guidance(shape: Shape, problem: object, states: np.ndarray | None = Non
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     return _finish(fig, ax, title, path, dpi=120)
+
+
+def plot_endgame(shape: Shape, problem: object, states: np.ndarray, first: int = 0,
+                 control_period: float = CONTROL_PERIOD_S, title: str = "",
+                 path: str | os.PathLike | None = None) -> plt.Figure:
+    """The end of an episode near the goal, from step ``first`` on: the object's bound and the pusher's
+    (``problem.object_workspace``, ``problem.pusher_workspace``: dashed), the goal, the pusher's path coloured
+    by time, the object's reference path and its end (filled), in a window 2.6 bounding radii wide round the
+    goal."""
+    X = np.asarray(states)
+    first = min(max(int(first), 0), len(X) - 1)
+    fig, ax = plt.subplots(figsize=(6.5, 5.5))
+    for corners, colour, label in ((problem.object_workspace, "k", "object's bound"),
+                                   (problem.pusher_workspace, "#1f77b4", "pusher's bound")):
+        if corners is not None:
+            ax.add_patch(Polygon(np.asarray(corners), closed=True, fill=False, ec=colour, lw=1.2, ls="--",
+                                 label=label))
+    _draw_pose(ax, shape, np.asarray(problem.goal), fill=False, ec="#d62728", lw=1.5, label="goal")
+    _draw_pose(ax, shape, X[-1, :3], fill=True, fc="0.6", ec="none", alpha=0.6, label="end")
+    t = np.arange(first, len(X)) * control_period
+    pusher = ax.scatter(X[first:, 3], X[first:, 4], c=t, s=3, cmap="viridis", label="pusher")
+    fig.colorbar(pusher, ax=ax, label="time (s)")
+    ax.plot(X[first:, 0], X[first:, 1], "k-", lw=1.2, label="object's reference")
+    g, half = np.asarray(problem.goal[:2]), 1.3 * shape.bounding_radius
+    ax.set_xlim(g[0] - half, g[0] + half)
+    ax.set_ylim(g[1] - half, g[1] + half)
+    ax.set_aspect("equal")
+    ax.legend(loc="lower left", fontsize=7)
+    ax.set_title(title, fontsize=9)
+    if path is not None:
+        save_figure_atomic(fig, path, dpi=110, bbox_inches="tight")
+    return fig
 
 
 def animate_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.ndarray,
