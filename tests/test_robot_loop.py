@@ -487,3 +487,34 @@ def test_the_robot_benchmarks_object_watch_needs_the_filter_and_a_folder_of_its_
     monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--object-watch"])
     with pytest.raises(SystemExit, match=r"holds episodes with another object watch than this run's"):
         robot_sim.main()
+
+
+def test_the_repeat_comparison_names_the_seeds_that_change_outcome_and_how_far_the_time_moves(tmp_path) -> None:
+    """``benchmarks/robot_repeat.py`` pairs two runs' records seed by seed: the seeds whose outcome changes, the time
+    moved on the seeds both runs succeed on; folders without a record, or with no seed in common, are one-line
+    errors."""
+    import json
+    import subprocess
+    import sys
+
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "robot_repeat.py"
+    runs = {"a": [(0, True, 20.0), (1, False, 60.0), (2, True, 30.0), (3, True, 10.0)],
+            "b": [(0, True, 25.5), (1, True, 31.0), (2, False, 60.0), (3, True, 10.5)]}
+    for name, rows in runs.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "records.jsonl").write_text("".join(
+            json.dumps({"task": "III", "shape": "tee", "seed": s, "success": ok, "time_s": t}) + "\n"
+            for s, ok, t in rows) + json.dumps({"task": "II", "shape": "tee", "seed": 0, "success": True,
+                                                 "time_s": 1.0}) + "\n")
+    run = subprocess.run([sys.executable, str(script), str(tmp_path / "a"), str(tmp_path / "b"), "--task", "III",
+                          "--shape", "tee"], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    out = json.loads(run.stdout.splitlines()[-1])
+    assert out["seeds"] == 4 and out["successes"] == [3, 3] and out["changed_outcome"] == [1, 2]
+    assert out["both_succeed"] == 2 and out["time_moved_s"] == {"mean": 3.0, "min": 0.5, "max": 5.5}
+    for args in ((tmp_path / "a", tmp_path / "nothing", "--task", "III"),      # no records.jsonl
+                 (tmp_path / "a", tmp_path / "b", "--task", "IV")):            # no seed in common
+        bad = subprocess.run([sys.executable, str(script), *map(str, args), "--shape", "tee"], capture_output=True,
+                             text=True, timeout=60)
+        assert bad.returncode != 0 and "Traceback" not in bad.stderr
+        assert "error: no" in bad.stderr.strip().splitlines()[-1]
