@@ -39,7 +39,7 @@ from dexpush.common.files import atomic_path
 from dexpush.experiments.registry import make_shape
 from dexpush.experiments.robot_trial import RobotSettings, run_arm_problem, run_robot_episode
 from dexpush.experiments.scenarios import MAX_STEPS, get_task
-from dexpush.robot.driver import RobotError, StartError
+from dexpush.robot.driver import DriverSettings, RobotError, StartError
 from dexpush.robot.object_watch import ObjectWatchSettings
 from dexpush.world.rendered_camera import SETUPS, RenderSettings
 from dexpush.world.sensing import SensorSettings
@@ -67,13 +67,15 @@ def setup_of(record: dict) -> dict:
     object's band and the task's default area (records written before these keys were the robot's own, with the
     filter on and the default reach; before the band was the annulus, docs/robot.md#the-band-is-an-annulus, they
     kept no bent way's room; before docs/robot.md#the-tasks-area-round-the-disc, the area's margin was 0.25 m;
-    before docs/robot.md#the-objects-clearance, the filter had no object watch)."""
+    before docs/robot.md#the-objects-clearance, the filter had no object watch; before
+    docs/robot.md#libfrankas-filter, the stream went through libfranka's 100-Hz low-pass)."""
     filtered = record.get("filtered", record["plant"] != "physics")
     annulus = "bent_way_room_m" in record or "bent_way_room_m" in record.get("robot", {})
     return {"plant": record["plant"], "filter": "on" if filtered else "off",
             "reach": tuple(record.get("reach", RobotSettings().driver.reach)),
             "band": "annulus" if annulus else "chord", "area margin": record.get("workspace_margin", 0.25),
-            "object watch": "on" if record.get("object_watch", False) else "off"}
+            "object watch": "on" if record.get("object_watch", False) else "off",
+            "cutoff": record.get("cutoff_frequency", 100.0)}
 
 
 def row(records: list[dict]) -> dict:
@@ -147,6 +149,9 @@ def main() -> None:
                     help="with --without-arm: the planner behind the robot's frame guard and safety filter")
     ap.add_argument("--object-watch", action="store_true",
                     help="the filter with the object's watch, off by default (docs/robot.md#the-objects-clearance)")
+    ap.add_argument("--cutoff-frequency", type=float, default=DriverSettings().cutoff_frequency, metavar="HZ",
+                    help="libfranka's low-pass on the velocity stream (Hz; 1000 turns it off; default "
+                         f"{DriverSettings().cutoff_frequency:g})")
     add_planner_flags(ap)     # --spread-cap C|off, --guidance-turn M|off, ...: the planner's defaults otherwise
     args = ap.parse_args()
     settings = default_config(planner_overrides(args)[0]).controller
@@ -159,11 +164,15 @@ def main() -> None:
     if args.object_watch and args.without_arm and not args.with_filter:
         raise SystemExit("error: --object-watch is the filter's: with --without-arm give --with-filter too")
     robot = RobotSettings(object_watch=ObjectWatchSettings()) if args.object_watch else RobotSettings()
-    if args.reach is not None:
-        robot = dataclasses.replace(robot, driver=dataclasses.replace(robot.driver, reach=args.reach))
+    try:
+        driver = dataclasses.replace(robot.driver, cutoff_frequency=args.cutoff_frequency,
+                                     **({} if args.reach is None else {"reach": args.reach}))
+    except ValueError as exc:
+        raise SystemExit(f"error: {exc}") from None
+    robot = dataclasses.replace(robot, driver=driver)
     setup = {"plant": "physics" if args.without_arm else "franka-sim",
              "filter": "on" if args.with_filter or not args.without_arm else "off", "reach": robot.driver.reach,
-             "band": "annulus", "area margin": robot.workspace_margin}
+             "band": "annulus", "area margin": robot.workspace_margin, "cutoff": robot.driver.cutoff_frequency}
     setup["object watch"] = "on" if setup["filter"] == "on" and robot.object_watch is not None else "off"
     other = sorted({k for r in records for k, v in setup_of(r).items() if v != setup[k]})
     if other:
@@ -202,7 +211,8 @@ def main() -> None:
                 rec = {**dataclasses.asdict(episode.record), "shape": shape_name, **side,
                        "spread_cap": settings.mppi.spread_cap, "guidance_turn_m": settings.weights.guidance_turn_m,
                        "guidance_goal_heading": settings.weights.guidance_goal_heading,
-                       "reach": list(robot.driver.reach), "workspace_margin": robot.workspace_margin,
+                       "reach": list(robot.driver.reach), "cutoff_frequency": robot.driver.cutoff_frequency,
+                       "workspace_margin": robot.workspace_margin,
                        "filtered": setup["filter"] == "on", "object_watch": setup["object watch"] == "on",
                        "wall_s": round(time.perf_counter() - t0, 1)}
                 with open(path, "a") as fh:

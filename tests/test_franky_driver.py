@@ -21,11 +21,11 @@ class _Robot:
     """Fails the first ``fails`` moves as franky's planner does (code -111) and any motion started before."""
 
     def __init__(self, fails: int) -> None:
-        self.fails, self.moves, self.has_errors = fails, [], False
+        self.fails, self.moves, self.cutoffs, self.has_errors = fails, [], [], False
         pose = types.SimpleNamespace(translation=[0.5, 0.0, 0.2], quaternion=[1.0, 0.0, 0.0, 0.0])
         self.current_cartesian_state = types.SimpleNamespace(pose=types.SimpleNamespace(end_effector_pose=pose))
 
-    def move(self, motion: _Motion, asynchronous: bool = False) -> None:
+    def move(self, motion: _Motion, asynchronous: bool = False, cutoff_frequency: float = 100.0) -> None:
         if motion.started:
             raise RuntimeError("This motion object has already been started before.")
         motion.started = True
@@ -33,6 +33,7 @@ class _Robot:
             self.fails -= 1
             raise RuntimeError("Motion planner failed with error code -111")
         self.moves.append(motion)
+        self.cutoffs.append(cutoff_frequency)
 
     def join_motion(self, timeout: float | None = None) -> None:
         pass
@@ -42,9 +43,9 @@ _FRANKY = types.SimpleNamespace(CartesianVelocityMotion=_Motion, RobotVelocity=l
                                 Duration=lambda ms: ms, CartesianMotion=_Motion, Affine=lambda p, q: (p, q))
 
 
-def _driver(fails: int) -> FrankyDriver:
+def _driver(fails: int, settings: DriverSettings | None = None) -> FrankyDriver:
     driver = object.__new__(FrankyDriver)
-    driver._f, driver.settings, driver._lock = _FRANKY, DriverSettings(), threading.RLock()
+    driver._f, driver.settings, driver._lock = _FRANKY, settings or DriverSettings(), threading.RLock()
     driver.robot, driver.sent, driver.retries, driver.stops, driver.errors = _Robot(fails), 0, 0, 0, []
     return driver
 
@@ -63,3 +64,13 @@ def test_a_command_failing_twice_is_a_robot_error_and_a_stop_never_raises() -> N
     driver.robot.fails = 2
     driver.stop()
     assert driver.stops == 1 and len(driver.errors) >= 3
+
+
+def test_the_velocity_stream_goes_through_the_configured_filter() -> None:
+    driver = _driver(fails=1, settings=DriverSettings(cutoff_frequency=1000.0))
+    driver.send([0.02, 0.0])
+    driver.stop()
+    assert driver.robot.cutoffs == [1000.0, 1000.0]
+    for bad in (0.0, -5.0, 1500.0):
+        with pytest.raises(ValueError, match="cutoff_frequency"):
+            DriverSettings(cutoff_frequency=bad)

@@ -48,6 +48,8 @@ class DriverSettings:
     approach_height: float = 0.08                     #: travel height between pushes (m above the table)
     dynamics_factor: float = 0.2                      #: fraction of the Franka's velocity/acceleration/jerk limits
     command_hold_s: float = 0.1                       #: a command not renewed within this stops the robot (s)
+    #: libfranka's first-order low-pass on the streamed velocity (Hz); 1000 (its maximum) turns it off
+    cutoff_frequency: float = 100.0
     height_gain: float = 5.0                          #: vertical correction (1/s) holding the tip height
     tilt_gain: float = 5.0                            #: rotational correction (1/s) holding the tool vertical
     max_correction: float = 0.05                      #: the corrections' cap (m/s, rad/s)
@@ -63,6 +65,9 @@ class DriverSettings:
         check_nonnegative("tip_height", self.tip_height, "m")
         if not (0 <= self.reach[0] < self.reach[1]):
             raise ValueError(f"reach is (r_min, r_max) in m with 0 <= r_min < r_max, got {self.reach!r}")
+        if not (0 < self.cutoff_frequency <= 1000):
+            raise ValueError(f"cutoff_frequency is in (0, 1000] Hz (1000 turns libfranka's filter off), "
+                             f"got {self.cutoff_frequency}")
         if self.dynamics_factor > 1:
             raise ValueError(f"dynamics_factor is a fraction of the robot's limits (0, 1], got {self.dynamics_factor}")
 

@@ -99,18 +99,18 @@ class FrankyDriver:
             raise RobotError(f"cannot read the Franka's clock (the connection to the robot is lost?): {exc}") from exc
 
     # ------------------------------------------------------------------ motion
-    def _move(self, make: Callable[[], object], asynchronous: bool) -> None:
+    def _move(self, make: Callable[[], object], asynchronous: bool, **options: float) -> None:
         """``robot.move`` of the motion ``make()`` builds, retried once with a new one (franky starts a motion
         object once): franky's motion generator sometimes fails to plan from the present state (Ruckig's codes
         -110/-111); a robot error is cleared first when the robot reports one."""
         try:
-            self.robot.move(make(), asynchronous=asynchronous)
+            self.robot.move(make(), asynchronous=asynchronous, **options)
         except Exception as exc:
             self.errors.append(f"{type(exc).__name__}: {exc}")
             self.retries += 1
             if self.robot.has_errors:
                 self.robot.recover_from_errors()
-            self.robot.move(make(), asynchronous=asynchronous)
+            self.robot.move(make(), asynchronous=asynchronous, **options)
 
     def _pose_motion(self, xyz: np.ndarray) -> None:
         f = self._f
@@ -155,7 +155,8 @@ class FrankyDriver:
             hold = round(self.settings.command_hold_s * 1e3)
             try:
                 self._move(lambda: f.CartesianVelocityMotion(f.RobotVelocity(f.Twist(lin, ang)),
-                                                             duration=f.Duration(hold)), asynchronous=True)
+                                                             duration=f.Duration(hold)), asynchronous=True,
+                           cutoff_frequency=self.settings.cutoff_frequency)
             except Exception as exc:
                 self.errors.append(f"{type(exc).__name__}: {exc}")
                 raise RobotError(f"the Franka refused a velocity command twice: {exc}") from exc
@@ -172,7 +173,7 @@ class FrankyDriver:
             try:
                 self._move(lambda: f.CartesianVelocityMotion(
                     f.RobotVelocity(f.Twist([0.0, 0.0, 0.0], [0.0, 0.0, 0.0])), duration=f.Duration(0)),
-                    asynchronous=True)
+                    asynchronous=True, cutoff_frequency=self.settings.cutoff_frequency)
                 self.robot.join_motion(timeout=2.0)
             except Exception as exc:      # the robot already stopped with an error: say so, do not raise
                 self.errors.append(f"{type(exc).__name__}: {exc}")
