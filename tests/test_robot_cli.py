@@ -23,6 +23,7 @@ def test_without_the_franka_extra_it_says_what_to_install(monkeypatch: pytest.Mo
     (["--camera", "rendered", "--noise-mm", "2"], "rendered images have their own errors"),
     (["--workspace", "0,0,0,1"], "workspace"),
     (["--dynamics-factor", "2"], "dynamics_factor"),
+    (["--cutoff-frequency", "2000"], "cutoff_frequency is in (0, 1000] Hz"),
 ])
 def test_bad_robot_input_is_one_line(argv: list[str], message: str, capsys: pytest.CaptureFixture) -> None:
     assert main(["robot", *argv, "--quiet", "--no-animation", "--out", "/tmp/dexpush-x"]) == 2

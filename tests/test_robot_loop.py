@@ -491,8 +491,9 @@ def test_the_robot_benchmarks_object_watch_needs_the_filter_and_a_folder_of_its_
 
 def test_the_repeat_comparison_names_the_seeds_that_change_outcome_and_how_far_the_time_moves(tmp_path) -> None:
     """``benchmarks/robot_repeat.py`` pairs two runs' records seed by seed: the seeds whose outcome changes, the time
-    moved on the seeds both runs succeed on; folders without a record, or with no seed in common, are one-line
-    errors."""
+    moved on the seeds both runs succeed on, and, for the arm's records, the commanded stream's largest jerk and
+    acceleration and the reflex-level milliseconds; folders without a record, or with no seed in common, are
+    one-line errors."""
     import json
     import subprocess
     import sys
@@ -512,6 +513,17 @@ def test_the_repeat_comparison_names_the_seeds_that_change_outcome_and_how_far_t
     out = json.loads(run.stdout.splitlines()[-1])
     assert out["seeds"] == 4 and out["successes"] == [3, 3] and out["changed_outcome"] == [1, 2]
     assert out["both_succeed"] == 2 and out["time_moved_s"] == {"mean": 3.0, "min": 0.5, "max": 5.5}
+    assert "max_commanded_jerk" not in out                 # records without the arm's report
+    for name, jerks in {"a": [4000.0, 5000.0, 6000.0, 7000.0], "b": [3000.0, 3500.0, 3600.0, 3700.0]}.items():
+        rows = [json.loads(line) for line in (tmp_path / name / "records.jsonl").read_text().splitlines()]
+        (tmp_path / name / "records.jsonl").write_text("".join(json.dumps({**r, "robot": {
+            "max_commanded_jerk": j, "max_commanded_acceleration": j / 1000, "reflex_limit_steps": int(j > 6500)}})
+            + "\n" for r, j in zip(rows, [*jerks, 1.0], strict=True)))
+    run = subprocess.run([sys.executable, str(script), str(tmp_path / "a"), str(tmp_path / "b"), "--task", "III",
+                          "--shape", "tee"], capture_output=True, text=True, timeout=60)
+    out = json.loads(run.stdout.splitlines()[-1])
+    assert out["max_commanded_jerk"] == {"median": [5500.0, 3550.0], "max": [7000.0, 3700.0]}
+    assert out["max_commanded_acceleration"]["max"] == [7.0, 3.7] and out["reflex_limit_steps"] == [1, 0]
     for args in ((tmp_path / "a", tmp_path / "nothing", "--task", "III"),      # no records.jsonl
                  (tmp_path / "a", tmp_path / "b", "--task", "IV")):            # no seed in common
         bad = subprocess.run([sys.executable, str(script), *map(str, args), "--shape", "tee"], capture_output=True,

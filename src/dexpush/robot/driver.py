@@ -48,8 +48,9 @@ class DriverSettings:
     approach_height: float = 0.08                     #: travel height between pushes (m above the table)
     dynamics_factor: float = 0.2                      #: fraction of the Franka's velocity/acceleration/jerk limits
     command_hold_s: float = 0.1                       #: a command not renewed within this stops the robot (s)
-    #: libfranka's first-order low-pass on the streamed velocity (Hz); 1000 (its maximum) turns it off
-    cutoff_frequency: float = 100.0
+    #: libfranka's first-order low-pass on the streamed velocity (Hz): 1000, its maximum, turns it off (franky's
+    #: generator already limits the jerk); 100 is libfranka's default. See docs/robot.md#libfrankas-filter.
+    cutoff_frequency: float = 1000.0
     height_gain: float = 5.0                          #: vertical correction (1/s) holding the tip height
     tilt_gain: float = 5.0                            #: rotational correction (1/s) holding the tool vertical
     max_correction: float = 0.05                      #: the corrections' cap (m/s, rad/s)

@@ -4,9 +4,10 @@
 Each planar velocity goes out as a franky ``CartesianVelocityMotion``: franky's Ruckig generator
 takes the tip from its present velocity to the new one within the robot's velocity,
 acceleration and jerk limits scaled by ``dynamics_factor``, so no command reaches the robot as
-a step. The motion holds its velocity for ``command_hold_s`` and then brakes to rest, so a stream
-that stops stops the robot by itself; the vertical velocity and the rotation hold the tip
-height and a vertical tool (a proportional correction, capped).
+a step; libfranka's low-pass filter on the stream is off by default (``cutoff_frequency``). The
+motion holds its velocity for ``command_hold_s`` and then brakes to rest, so a stream that stops
+stops the robot by itself; the vertical velocity and the rotation hold the tip height and a
+vertical tool (a proportional correction, capped).
 """
 
 from __future__ import annotations
