@@ -484,6 +484,11 @@ def test_the_robot_benchmarks_object_watch_needs_the_filter_and_a_folder_of_its_
     (tmp_path / "records.jsonl").write_text(json.dumps(record) + "\n")
     assert robot_sim.setup_of(record)["object watch"] == "off"
     assert robot_sim.setup_of({**record, "object_watch": True})["object watch"] == "on"
+    # libfranka's filter is the arm's: records on it without the key ran with its 100-Hz default
+    assert robot_sim.setup_of(record)["libfranka cutoff"] is None
+    assert robot_sim.setup_of({**record, "plant": "franka-sim"})["libfranka cutoff"] == 100.0
+    arm_record = {**record, "plant": "franka-sim", "cutoff_frequency": 1000.0}
+    assert robot_sim.setup_of(arm_record)["libfranka cutoff"] == 1000.0
     monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--object-watch"])
     with pytest.raises(SystemExit, match=r"holds episodes with another object watch than this run's"):
         robot_sim.main()

@@ -153,9 +153,9 @@ def build_parser() -> argparse.ArgumentParser:
                       help="the filter's acceleration limit (m/s², default 2.5)")
     safe.add_argument("--dynamics-factor", type=positive_float, default=0.2,
                       help="fraction of the Franka's velocity, acceleration and jerk limits (default 0.2)")
-    safe.add_argument("--cutoff-frequency", type=positive_float, default=1000.0, metavar="HZ",
-                      help="libfranka's low-pass filter on the velocity stream (Hz; default 1000: off; libfranka's own "
-                           "default is 100; docs/robot.md#libfrankas-filter)")
+    safe.add_argument("--cutoff-frequency", type=positive_float, default=None, metavar="HZ",
+                      help="libfranka's low-pass filter on the velocity stream (Hz; default: off, 1000; libfranka's "
+                           "own default is 100; docs/robot.md#libfrankas-filter)")
     add_planner_flags(rob)
     add_camera_flags(rob)
     episode_args(rob, "out/robot")
