@@ -97,26 +97,21 @@ def test_version_is_printed(capsys) -> None:
     assert exc.value.code == 0 and capsys.readouterr().out.startswith("dexpush 0.")
 
 
-def test_the_cli_caches_compiled_programs_for_the_next_run(tmp_path: Path) -> None:
+def test_a_run_in_a_scene_file_draws_its_walls_and_boxes_and_the_next_run_compiles_nothing(tmp_path: Path) -> None:
     import os
 
     cache = tmp_path / "cache"
     env = {k: v for k, v in os.environ.items() if k != "DEXPUSH_NO_CACHE"} | {"DEXPUSH_CACHE_DIR": str(cache)}
-    args = [sys.executable, "-m", "dexpush.cli", "run", "--max-steps", "2", "--no-animation", "--quiet"]
+    args = [sys.executable, "-m", "dexpush.cli", "run", "--scene", "examples/scenes/tray.toml", "--goal",
+            "0.45,0.1,90deg", "--max-steps", "5", "--no-animation", "--quiet"]
     first = subprocess.run([*args, "--out", str(tmp_path / "a")], capture_output=True, text=True, env=env, timeout=600)
-    assert first.returncode == 1, first.stderr            # 2 steps cannot reach the goal
+    assert first.returncode == 1, first.stderr            # 5 steps cannot reach the goal
+    summary = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert summary["task"] == "custom" and summary["collisions"] == 0 and summary["clearance_m"] > 0
+    assert (tmp_path / "a" / "trajectory.png").stat().st_size > 10_000
     entries = sorted(p.name for p in cache.iterdir())
     assert entries                                         # the compiled programs were written
     second = subprocess.run([*args, "--out", str(tmp_path / "b")], capture_output=True, text=True, env=env,
                             timeout=600)
     assert second.returncode == 1, second.stderr
     assert sorted(p.name for p in cache.iterdir()) == entries   # and found again: nothing new compiled
-
-
-def test_a_run_in_a_scene_file_draws_its_walls_and_boxes(tmp_path: Path) -> None:
-    proc = dexpush("run", "--scene", "examples/scenes/tray.toml", "--goal", "0.45,0.1,90deg", "--max-steps", "5",
-                   "--no-animation", "--quiet", "--out", str(tmp_path))
-    assert proc.returncode == 1, proc.stderr             # 5 steps cannot reach the goal
-    summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["task"] == "custom" and summary["collisions"] == 0 and summary["clearance_m"] > 0
-    assert (tmp_path / "trajectory.png").stat().st_size > 10_000
