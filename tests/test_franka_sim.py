@@ -269,7 +269,8 @@ def test_the_robot_benchmark_runs_the_arms_problem_without_the_arm(tmp_path) -> 
     assert proc.returncode == 0, proc.stderr[-2000:]
     (rec,) = [json.loads(line) for line in (filtered / "records.jsonl").read_text().splitlines()]
     assert rec["plant"] == "physics" and rec["filtered"] is True and rec["steps"] == 20
-    for extra, message in (([], "another filter and plant than this run's (filter on, plant franka-sim)"),
+    for extra, message in (([], "another filter and libfranka cutoff and plant than this run's (filter on, libfranka "
+                                "cutoff 1000.0, plant franka-sim)"),
                            (["--without-arm", "--reach", "0.3,0.9"], "another reach than this run's (reach (0.3, 0.9)"),
                            (["--reach", "0.5,0.4"], "expected 0 <= R_MIN < R_MAX"),
                            (["--with-filter"], "--with-filter goes with --without-arm"),
