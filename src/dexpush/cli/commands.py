@@ -144,9 +144,9 @@ def cmd_robot(args: argparse.Namespace) -> dict:
     sensor = build_sensor(config)
     if sensor is None and getattr(args, "camera", None) != "exact":
         sensor = SensorSettings.realistic(seed=0)           # a robot sees through a camera unless told otherwise
-    robot = RobotSettings(safety=SafetySettings(v_max=args.v_limit, a_max=args.a_limit),
-                          driver=DriverSettings(dynamics_factor=args.dynamics_factor, **(
-                              {} if args.cutoff_frequency is None else {"cutoff_frequency": args.cutoff_frequency})))
+    given = {name: getattr(args, name) for name in ("dynamics_factor", "cutoff_frequency")
+             if getattr(args, name) is not None}                  # the driver's own defaults otherwise
+    robot = RobotSettings(safety=SafetySettings(v_max=args.v_limit, a_max=args.a_limit), driver=DriverSettings(**given))
     params = run.params if run.lambda_pred is None else lambda_pred(run)
     t0 = time.perf_counter()
     episode, report = run_robot_episode(task, shape, params=params, method=run.method, seed=run.seed,

@@ -151,7 +151,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="the filter's speed limit (m/s, default 0.15)")
     safe.add_argument("--a-limit", type=positive_float, default=2.5,
                       help="the filter's acceleration limit (m/s², default 2.5)")
-    safe.add_argument("--dynamics-factor", type=positive_float, default=0.2,
+    safe.add_argument("--dynamics-factor", type=positive_float, default=None,
                       help="fraction of the Franka's velocity, acceleration and jerk limits (default 0.2)")
     safe.add_argument("--cutoff-frequency", type=positive_float, default=None, metavar="HZ",
                       help="libfranka's low-pass filter on the velocity stream (Hz; default: off, 1000; libfranka's "
