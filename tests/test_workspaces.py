@@ -264,6 +264,30 @@ def test_a_cost_to_go_with_headings_charges_the_turn_a_slot_needs() -> None:
     assert not turned.free[(3, *in_slot)] and not turned.free[(4, *in_slot)] and not turned.free[(12, *in_slot)]
 
 
+def test_with_the_pushers_room_a_pocket_the_box_fills_is_a_trap() -> None:
+    """A slot open toward the goal (+x), closed behind by the table's edge, 16 cm wide (the box's 12 cm and the
+    margins fit lengthwise only). Pushed out lengthwise, the pusher must sit between the box and the edge:
+    where that gap is under the pusher's width and the margin the box can be pushed in but not out, so V there
+    is the trap's, TRAP_M above the way's; elsewhere, and with the footprint's room alone, V is the way's."""
+    from dexpush.problem.guidance import TRAP_M
+    goal = np.array([0.3, 0.0, 0.0])
+    slot = (wall(-0.6, 0.09, 0.1, 0.09, 0.02), wall(-0.6, -0.09, 0.1, -0.09, 0.02))
+    args = (RECT.polygons, RECT.bounding_radius, goal, np.zeros((0, 3)), slot,
+            np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]), 0.01)
+    fits, pushed = cost_to_go(*args, turn_m=0.1), cost_to_go(*args, turn_m=0.1, pusher_radius=0.01)
+    deep, room = np.array([-0.38, 0.0]), np.array([-0.34, 0.0])   # the box's back 2 and 6 cm from the edge
+    assert fits.at(deep, 0.0) == pytest.approx(0.68, rel=GRID_STRETCH)
+    assert pushed.at(deep, 0.0) - fits.at(deep, 0.0) == pytest.approx(TRAP_M, abs=1e-5)
+    for p in (room, np.array([0.0, -0.3]), np.array([0.2, 0.3])):
+        assert pushed.at(p, 0.0) == pytest.approx(fits.at(p, 0.0), abs=1e-5)
+    # the way out of the pocket's mouth is a push from inside it, which has room; into it, from the open
+    assert pushed.connects(room) and pushed.build_s < 0.5
+    with pytest.raises(ValueError, match="pusher_radius"):
+        cost_to_go(*args, pusher_radius=0.01)          # the room depends on the heading: layers are needed
+    with pytest.raises(ValueError, match="guidance_pusher_room needs guidance_turn_m"):
+        CostWeights(guidance_pusher_room=True, guidance_turn_m=None)
+
+
 def test_cost_to_go_leads_round_a_wall_and_not_through_it() -> None:
     goal = np.array([0.3, 0.0, 0.0])
     barrier = wall(0.0, -0.35, 0.0, 0.5, 0.02)          # open below y = -0.35 only

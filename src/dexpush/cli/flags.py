@@ -32,6 +32,7 @@ _PLANNER = {
     "--guidance": ("guidance", ("weights", "guidance")),
     "--guidance-turn": ("guidance_turn", ("weights", "guidance_turn_m")),
     "--guidance-goal-heading": ("guidance_goal_heading", ("weights", "guidance_goal_heading")),
+    "--guidance-pusher-room": ("guidance_pusher_room", ("weights", "guidance_pusher_room")),
     "--stall-after": ("stall_after", ("stall", "after_s")),
     "--temperature": ("temperature", ("mppi", "temperature")),
     "--spread-cap": ("spread_cap", ("mppi", "spread_cap")),
@@ -65,6 +66,10 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
                    help="the cost-to-go's way ends in the goal's heading, counting the turn to it where the "
                         "footprint fits (default), or in any heading (--no-guidance-goal-heading; "
                         "weights.guidance_goal_heading; docs/workspaces.md#the-turn-to-the-goals-heading-2026-12-05)")
+    g.add_argument("--guidance-pusher-room", action=argparse.BooleanOptionalAction, default=None,
+                   help="each move of the cost-to-go's way needs room for the pusher behind the object, or only "
+                        "room for the footprint (--no-guidance-pusher-room, the default; "
+                        "weights.guidance_pusher_room; docs/workspaces.md#the-pushers-room-2026-12-07)")
     g.add_argument("--stall-after", type=positive_or_off("a time in seconds"), default=None, metavar="SECONDS|off",
                    help="restart the planner after this long without progress and contact, or never (off) "
                         "(stall.after_s; docs/controller.md#stalls; default: 4)")

@@ -22,6 +22,14 @@ heading term). V(p, θ) is then the length of the way from p that the footprint 
 has, turning where it fits, to the goal pose: in the open ‖p − g‖ + ρ·|θ − θ_g| (up to the grid's stretch
 and the layers' spacing); without ρ it is the way for a footprint that turns to fit anywhere at no cost.
 
+With ``pusher_radius`` (opt-in, ``CostWeights.guidance_pusher_room``) a move also needs room for the pusher
+behind the object: a move in direction u from node (k, i, j) is an edge only where a disc of that radius,
+touching the footprint in θ_k at its support point in direction −u (the outline point farthest back, the one
+nearest the line through the reference among ties), keeps the margin to every obstacle. A pusher cannot pull,
+so no way leads out of a pocket the object fills, and the graph is directed (Dijkstra runs on its transpose,
+from the goal). A node where the footprint fits but no way leads to the goal is a trap: its V is the nearest
+reached node's plus the distance plus :data:`TRAP_M`, so that the planner does not push the object in.
+
 The cost (:func:`dexpush.problem.cost.guided_length_sq`) uses ℓ = max(‖p − g‖, (V(p, θ) − h)/(1 + κ)), κ =
 :data:`GRID_STRETCH`: ℓ is the straight-line distance wherever the way to the goal is straight and free
 and the heading is the goal's (so the cost there is eq. (9)'s), the path round otherwise, and, with the goal's
@@ -42,7 +50,7 @@ from scipy.sparse.csgraph import dijkstra
 from dexpush.model.polygons import inside_polygon
 from dexpush.problem.regions import point_gap
 
-__all__ = ["GRID_BLOCK", "GRID_STRETCH", "HEADINGS", "CostToGo", "cost_to_go", "nearest_layer"]
+__all__ = ["GRID_BLOCK", "GRID_STRETCH", "HEADINGS", "TRAP_M", "CostToGo", "cost_to_go", "nearest_layer"]
 
 #: the headings tried for a free position (every 360°/HEADINGS)
 HEADINGS = 16
@@ -53,6 +61,8 @@ GRID_STRETCH = 0.03
 #: beyond the workspace, where no node is free), so that problems of one family (a robot's placed tasks) give V
 #: arrays of a few shapes and the planner compiles a few times rather than once per problem
 GRID_BLOCK = 8
+#: with the pusher's room, what V adds (m) where the footprint fits but no pushed way leads to the goal
+TRAP_M = 0.2
 _MOVES = np.array([(1, 0), (0, 1), (-1, 0), (0, -1), (1, 1), (-1, 1), (-1, -1), (1, -1),
                    (2, 1), (1, 2), (-1, 2), (-2, 1), (-2, -1), (-1, -2), (1, -2), (2, -1)])
 
@@ -141,17 +151,21 @@ def _footprint_samples(polygons: tuple[np.ndarray, ...], cell: float) -> np.ndar
 def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, discs: np.ndarray,
                polygons: tuple[np.ndarray, ...], workspace: np.ndarray | tuple[np.ndarray, ...] | None,
                margin: float, cell: float = 0.02, turn_m: float | None = None,
-               goal_heading: bool = True) -> CostToGo:
+               goal_heading: bool = True, pusher_radius: float | None = None) -> CostToGo:
     """The cost-to-go of the module docstring for a footprint (its polygons in {B}, ``reach`` its largest
     distance from the reference) pushed to ``goal`` (x, y, θ) past ``discs`` (M, 3), convex ``polygons`` and
     inside the convex ``workspace`` corners, or inside each of a tuple of them (None: unbounded), keeping
     ``margin`` (m) clear, on a grid of ``cell`` (m). The grid spans the workspace, or the goal and the
     obstacles with room for the footprint round them. ``turn_m`` (m per radian) gives V one layer per
     heading, a turn at a node costing ``turn_m`` per radian, and with ``goal_heading`` the way ends in the
-    goal's heading (else in any); None gives one layer, free where the footprint fits in some heading."""
+    goal's heading (else in any); None gives one layer, free where the footprint fits in some heading.
+    ``pusher_radius`` (m; needs ``turn_m``) makes each move need the pusher's room behind the object."""
     t0 = time.perf_counter()
     if turn_m is not None and not (np.isfinite(turn_m) and turn_m > 0):
         raise ValueError(f"turn_m must be positive (m per radian) or None, got {turn_m!r}")
+    if pusher_radius is not None and (turn_m is None or not (np.isfinite(pusher_radius) and pusher_radius > 0)):
+        raise ValueError(f"pusher_radius must be positive and needs turn_m (the pusher's room depends on the "
+                         f"heading), got pusher_radius={pusher_radius!r}, turn_m={turn_m!r}")
     g = np.asarray(goal, np.float64)
     areas = () if workspace is None else (workspace,) if isinstance(workspace, np.ndarray) else tuple(workspace)
     if areas:
@@ -166,7 +180,8 @@ def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, di
     lo = g[:2] - np.ceil((g[:2] - lo) / cell - 1e-9) * cell           # the goal is a node
     shape = np.maximum(np.ceil((hi - lo) / cell - 1e-9).astype(int) + 1, 2)
     shape = -(-shape // GRID_BLOCK) * GRID_BLOCK          # a few grid sizes: a family of problems shares compiled code
-    extra = int(np.ceil(reach / cell)) + 1                 # room for the footprint's samples beyond the grid
+    # room for the footprint's samples (and the pusher behind it) beyond the grid
+    extra = int(np.ceil((reach + 2 * (pusher_radius or 0.0)) / cell)) + 1
     ix = np.arange(-extra, shape[0] + extra) * cell + lo[0]
     iy = np.arange(-extra, shape[1] + extra) * cell + lo[1]
     nodes = np.stack(np.meshgrid(ix, iy, indexing="ij"), -1)
@@ -186,6 +201,8 @@ def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, di
         offsets = np.unique(np.round(samples @ np.array([[c, s], [-s, c]]) / cell).astype(int), axis=0)
         for di, dj in offsets:
             fits[k] &= clear[extra + di:extra + di + shape[0], extra + dj:extra + dj + shape[1]]
+    room = None if pusher_radius is None else _pusher_room(footprint, d > pusher_radius + margin, extra, shape,
+                                                           cell, pusher_radius)
     goal_node = tuple(np.round((g[:2] - lo) / cell).astype(int))
     if turn_m is None:
         free = fits.any(0, keepdims=True)
@@ -199,9 +216,42 @@ def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, di
         sources = ([(goal_layer, *goal_node)] if goal_heading
                    else [(k, *goal_node) for k in range(HEADINGS) if free[(k, *goal_node)]])
         turn = turn_m * 2 * np.pi / HEADINGS
-    values, reached = _geodesic(free, sources, cell, turn)
+    values, reached = _geodesic(free, sources, cell, turn, room)
     return CostToGo(values.astype(np.float32), free, reached, lo.astype(np.float64), float(cell),
                     time.perf_counter() - t0)
+
+
+def _support_points(polygons: tuple[np.ndarray, ...], directions: np.ndarray, cell: float) -> np.ndarray:
+    """For each unit direction w (n, 2) in {B}, the outline point (n, 2) farthest along w, the one nearest the
+    line through the reference along w among those within a quarter cell of the farthest."""
+    outline = []
+    for p in polygons:
+        for a, b in zip(p, np.roll(p, -1, axis=0), strict=True):
+            k = max(int(np.ceil(np.hypot(*(b - a)) / (cell / 4))), 1)
+            outline.append(a + (b - a) * (np.arange(k) / k)[:, None])
+    pts = np.concatenate(outline)
+    along = directions @ pts.T                                                    # (n, P)
+    across = np.abs(directions[:, :1] * pts[:, 1] - directions[:, 1:] * pts[:, 0])
+    near_back = along >= along.max(1, keepdims=True) - cell / 4
+    return pts[np.argmin(np.where(near_back, across, np.inf), axis=1)]
+
+
+def _pusher_room(polygons: tuple[np.ndarray, ...], pusher_clear: np.ndarray, extra: int, shape: np.ndarray,
+                 cell: float, radius: float) -> np.ndarray:
+    """``room[m, k, i, j]``: with the object at node (i, j) in heading θ_k, a pusher disc of ``radius`` fits
+    (``pusher_clear`` on the grid padded by ``extra``) where it touches the footprint on the side of move m's
+    direction, so that it can push the object the other way."""
+    moves = _MOVES / np.hypot(*_MOVES.T)[:, None]
+    room = np.empty((len(_MOVES), HEADINGS, *shape), bool)
+    for k in range(HEADINGS):
+        th = 2 * np.pi * k / HEADINGS
+        c, s = np.cos(th), np.sin(th)
+        to_body = moves @ np.array([[c, -s], [s, c]])                                # w in {B}, rows
+        centres = _support_points(polygons, to_body, cell) + radius * to_body
+        offsets = np.round(centres @ np.array([[c, s], [-s, c]]) / cell).astype(int)  # in {W}, cells
+        for m, (di, dj) in enumerate(offsets):
+            room[m, k] = pusher_clear[extra + di:extra + di + shape[0], extra + dj:extra + dj + shape[1]]
+    return room
 
 
 def _window(free: np.ndarray, di: int, dj: int, oi: int = 0, oj: int = 0) -> np.ndarray:
@@ -213,17 +263,22 @@ def _window(free: np.ndarray, di: int, dj: int, oi: int = 0, oj: int = 0) -> np.
 
 
 def _geodesic(free: np.ndarray, sources: list[tuple[int, int, int]], cell: float,
-              turn: float) -> tuple[np.ndarray, np.ndarray]:
+              turn: float, room: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Path lengths (m) to the nearest of ``sources`` over the free nodes (K, nx, ny): in each layer a
-    16-neighbour grid (a move's end nodes and the nodes it passes between must be free: no cutting a corner),
+    16-neighbour grid (a move's end nodes and the nodes it passes between must be free: no cutting a corner;
+    with ``room`` (moves, K, nx, ny) a move also needs the pusher's room behind the object where it starts),
     and between neighbouring layers (k, k + 1 mod K) at a node free in both a turn of length ``turn``. A node
     no path reaches gets its layer's nearest reached node's length plus the straight distance to it (the
-    nearest in any layer where its layer has none). Also the reached nodes."""
+    nearest in any layer where its layer has none), plus :data:`TRAP_M` at a free one with ``room``. Also the
+    reached nodes."""
     n_k, nx, ny = free.shape
     index = np.arange(n_k * nx * ny).reshape(n_k, nx, ny)
     rows, cols, lengths = [], [], []
-    for di, dj in _MOVES:                  # in every layer at once
+    for m, (di, dj) in enumerate(_MOVES):  # in every layer at once
         ok = _window(free, di, dj) & _window(free, di, dj, di, dj)
+        if room is not None:
+            # the edge src → src + (di, dj) is the object's move back from src + (di, dj), pushed from that side
+            ok &= _window(room[m], di, dj, di, dj)
         if di and dj:     # a diagonal passes (i + si, j) and (i, j + sj); a knight's move (i + si, j + sj) too
             si, sj = int(np.sign(di)), int(np.sign(dj))
             for oi, oj in {(si, 0), (0, sj), (si, sj), (di - si, dj - sj)} - {(0, 0), (di, dj)}:
@@ -248,4 +303,6 @@ def _geodesic(free: np.ndarray, sources: list[tuple[int, int, int]], cell: float
         lengths_k = dist[k] if reached[k].any() else np.where(reached, dist, np.inf).min(0)
         steps, (ii, jj) = ndimage.distance_transform_edt(~near, return_indices=True)
         out[k] = np.where(near, lengths_k, lengths_k[ii, jj] + steps * cell)
+    if room is not None:
+        out += np.where(free & ~reached, TRAP_M, 0.0)
     return out, reached

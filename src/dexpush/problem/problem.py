@@ -172,6 +172,11 @@ class Problem:
             edge_bounds, bounds = bounds[edge], bounds[~edge]
         put(self, "region", region)
         put(self, "region_rows", goal_rows)
+        if self.weights.guidance_pusher_room and (object_bounds is not None or pusher_bounds is not None
+                                                  or len(keep_out)):
+            # the pusher's room is measured against the footprint's obstacles and bounds, not a robot's own
+            raise ValueError("weights.guidance_pusher_room is for scenes without object_workspace, pusher_workspace "
+                             "or keep_out (a robot's bounds); turn it off for this problem")
         guide = None
         # disc-only scenes keep the detour round the discs, a footprint's reach from each, alone
         # (docs/workspaces.md#discs-alone-keep-the-detour-2026-12-05)
@@ -182,7 +187,8 @@ class Problem:
                                np.concatenate([discs, keep_out[:, :3]]), polys,
                                tuple(halfplane_corners(rows) for rows in area) or None,
                                self.weights.obstacle_margin_m, self.weights.guidance_cell_m,
-                               self.weights.guidance_turn_m, self.weights.guidance_goal_heading)
+                               self.weights.guidance_turn_m, self.weights.guidance_goal_heading,
+                               self.shape.pusher_radius if self.weights.guidance_pusher_room else None)
         put(self, "guide", guide)
         put(self, "contour", Contour.of(self.shape))
         put(self, "scene", Scene.make(self.shape, goal, discs, self.weights, COST_OUTLINE_EDGES, polys, bounds,

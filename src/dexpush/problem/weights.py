@@ -55,6 +55,10 @@ class CostWeights:
     #: where the footprint fits to make it; False: in any heading, the turn left to the heading term of d².
     #: See docs/workspaces.md#the-turn-to-the-goals-heading-2026-12-05.
     guidance_goal_heading: bool = True
+    #: with ``guidance_turn_m``, each of the cost-to-go's moves needs room for the pusher behind the object, so
+    #: that the way does not lead where the object can be pushed in but not out; False: where the footprint
+    #: fits. See docs/workspaces.md#the-pushers-room-2026-12-07.
+    guidance_pusher_room: bool = False
 
     def __post_init__(self) -> None:
         for name in ("q_f", "q_r1", "q_r2", "c"):
@@ -73,6 +77,8 @@ class CostWeights:
             raise ValueError(f"guidance_cell_m must be between 0.005 and 0.1 m, got {self.guidance_cell_m!r}")
         if self.guidance_turn_m is not None:
             check_positive("guidance_turn_m", self.guidance_turn_m, "m per radian, or None")
+        if self.guidance_pusher_room and self.guidance_turn_m is None:
+            raise ValueError("guidance_pusher_room needs guidance_turn_m (the pusher's room depends on the heading)")
         if self.r_s_clearance is not None:
             check_nonnegative("r_s_clearance", self.r_s_clearance, "m, or None")
 
