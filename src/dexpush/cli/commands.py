@@ -10,6 +10,7 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from dexpush.cli.flags import camera_overrides, planner_overrides
 from dexpush.cli.settings_file import merge
@@ -17,6 +18,9 @@ from dexpush.common.interfaces import CONTROL_PERIOD_S
 from dexpush.experiments.methods import get_method, method_names
 from dexpush.experiments.records import CONDITION_KEYS
 from dexpush.experiments.registry import PARAMS, SHAPES
+
+if TYPE_CHECKING:
+    from dexpush.robot.safety import SafetySettings
 
 __all__ = ["cmd_bench", "cmd_fit", "cmd_robot", "cmd_run", "cmd_validate", "effective_config"]
 
@@ -128,7 +132,6 @@ def cmd_robot(args: argparse.Namespace) -> dict:
     from dexpush.cli.config import build_sensor, build_task, check_run_config, lambda_pred, load_shape
     from dexpush.experiments.robot_trial import RobotSettings, run_robot_episode
     from dexpush.robot.driver import DriverSettings
-    from dexpush.robot.safety import SafetySettings
     from dexpush.world.sensing import SensorSettings
 
     config = effective_config(args)
@@ -144,9 +147,8 @@ def cmd_robot(args: argparse.Namespace) -> dict:
     sensor = build_sensor(config)
     if sensor is None and getattr(args, "camera", None) != "exact":
         sensor = SensorSettings.realistic(seed=0)           # a robot sees through a camera unless told otherwise
-    given = {name: getattr(args, name) for name in ("dynamics_factor", "cutoff_frequency")
-             if getattr(args, name) is not None}                  # the driver's own defaults otherwise
-    robot = RobotSettings(safety=SafetySettings(v_max=args.v_limit, a_max=args.a_limit), driver=DriverSettings(**given))
+    driver = DriverSettings(**given_flags(args, dynamics_factor="dynamics_factor", cutoff_frequency="cutoff_frequency"))
+    robot = RobotSettings(safety=safety_settings(args), driver=driver)
     params = run.params if run.lambda_pred is None else lambda_pred(run)
     t0 = time.perf_counter()
     episode, report = run_robot_episode(task, shape, params=params, method=run.method, seed=run.seed,
@@ -190,6 +192,19 @@ def cmd_clear(args: argparse.Namespace) -> dict:
                                                          "video": record.get("video")}}
 
 
+def given_flags(args: argparse.Namespace, **fields: str) -> dict:
+    """The settings fields (name → the flag's dest) whose flags were given: the settings' own defaults stand for
+    the rest, so that a default is written once, in its settings class."""
+    return {name: getattr(args, dest) for name, dest in fields.items() if getattr(args, dest, None) is not None}
+
+
+def safety_settings(args: argparse.Namespace) -> SafetySettings:
+    """The safety filter's settings from ``--v-limit`` and ``--a-limit``, where given."""
+    from dexpush.robot.safety import SafetySettings
+
+    return SafetySettings(**given_flags(args, v_max="v_limit", a_max="a_limit"))
+
+
 def refuse_region(task: object, command: str) -> None:
     """A one-line ``ValueError`` for a goal region where ``command`` takes goal poses only."""
     if getattr(task, "region", None) is not None:
@@ -203,7 +218,6 @@ def cmd_ros(args: argparse.Namespace) -> dict:
     from dexpush.common.netns import LOCALHOST_ENV
     from dexpush.problem.problem import Problem
     from dexpush.problem.scene_file import Layout
-    from dexpush.robot.safety import SafetySettings
     from dexpush.robot.smoothing import SmoothingSettings
     from dexpush.ros.core import NodeCore, NodeSettings
     from dexpush.ros.node import Topics, require_rclpy, run_node
@@ -219,8 +233,9 @@ def cmd_ros(args: argparse.Namespace) -> dict:
     refuse_region(task, "dexpush ros")
     node = NodeSettings(world_frame=args.world_frame, twist_frame=args.twist_frame, trigger=args.trigger,
                         stale_s=args.stale, watchdog_s=args.watchdog,
-                        smoothing=SmoothingSettings(args.a_limit, args.j_limit) if args.smooth else None,
-                        stream_hz=args.stream_rate, safety=SafetySettings(v_max=args.v_limit, a_max=args.a_limit))
+                        smoothing=SmoothingSettings(**given_flags(args, a_max="a_limit", j_max="j_limit"))
+                        if args.smooth else None,
+                        stream_hz=args.stream_rate, safety=safety_settings(args))
     topics = Topics(**{name: getattr(args, f"topic_{name}") for name in Topics().__dict__})
     params = run.params if run.lambda_pred is None else lambda_pred(run)
     lam = PARAMS[params] if isinstance(params, str) else tuple(params)

@@ -147,9 +147,9 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument("--robot", metavar="ADDRESS", default=None, help="a real Franka's FCI address")
     share_run_flags(rob, what, how, skip=("print_config",))
     safe = rob.add_argument_group("robot and safety filter")
-    safe.add_argument("--v-limit", type=positive_float, default=0.15,
+    safe.add_argument("--v-limit", type=positive_float, default=None,
                       help="the filter's speed limit (m/s, default 0.15)")
-    safe.add_argument("--a-limit", type=positive_float, default=2.5,
+    safe.add_argument("--a-limit", type=positive_float, default=None,
                       help="the filter's acceleration limit (m/s², default 2.5)")
     safe.add_argument("--dynamics-factor", type=positive_float, default=None,
                       help="fraction of the Franka's velocity, acceleration and jerk limits (default 0.2)")
@@ -201,11 +201,11 @@ def build_parser() -> argparse.ArgumentParser:
                     help="stream twists at --stream-rate within --a-limit and --j-limit (for robots that need "
                          "continuous commands)")
     rg.add_argument("--stream-rate", type=positive_float, default=250.0, help="with --smooth (Hz, default 250)")
-    rg.add_argument("--a-limit", type=positive_float, default=2.5,
+    rg.add_argument("--a-limit", type=positive_float, default=None,
                     help="acceleration limit of the filter and the stream (m/s², default 2.5)")
-    rg.add_argument("--j-limit", type=positive_float, default=250.0,
+    rg.add_argument("--j-limit", type=positive_float, default=None,
                     help="with --smooth: jerk limit (m/s³, default 250)")
-    rg.add_argument("--v-limit", type=positive_float, default=0.15, help="the filter's speed limit (m/s, default 0.15)")
+    rg.add_argument("--v-limit", type=positive_float, default=None, help="the filter's speed limit (m/s, default 0.15)")
     rg.add_argument("--duration", type=positive_float, default=None, help="stop after this many seconds")
     rg.add_argument("--until-reached", action="store_true", help="stop once the goal is reached")
     rg.add_argument("--node-name", default="dexpush", help="the node's name (default dexpush)")
