@@ -304,6 +304,30 @@ def test_cost_to_go_leads_round_a_wall_and_not_through_it() -> None:
     assert not closed.connects(start)
 
 
+def test_the_running_cost_follows_the_way_only_when_told() -> None:
+    """Task IV on the T: by default the running cost's goal distance is the detour round the discs (the terminal
+    cost's is ℓ along V); with ``guidance_running`` it is ℓ as well, and the rest of the running cost (the
+    pusher's gap, the obstacles) is unchanged."""
+    import jax.numpy as jnp
+
+    from dexpush.problem.cost import detour_length_sq, guided_length_sq, obstacle_cost, running_cost
+
+    tee = Shape.tee()
+    plain, along = CostWeights(), CostWeights(guidance_running=True)
+    scene = TASKS["IV"].problem(tee, plain).scene
+    rng = np.random.default_rng(5)
+    p = rng.uniform([-0.15, -0.25], [0.45, 0.15], (1000, 2))
+    th = rng.uniform(-np.pi, np.pi, len(p))
+    x = jnp.asarray(np.c_[p, th, p + rng.normal(0, 0.1, p.shape)], jnp.float32)
+    guided = np.asarray(guided_length_sq(x[:, 0], x[:, 1], x[:, 2], scene))
+    detour = np.asarray(detour_length_sq(x[:, 0], x[:, 1], scene))
+    gap = plain.q_r1 * (guided - detour)
+    free = np.asarray(obstacle_cost(x, scene, plain)) == 0          # float32 sums beside a touch's C_pen lose these
+    assert free.sum() > 200 and np.mean(np.abs(gap[free]) > 1e-3) > 0.5   # the two distances differ on most states
+    change = np.asarray(running_cost(x, scene, along)) - np.asarray(running_cost(x, scene, plain))
+    np.testing.assert_allclose(change[free], gap[free], rtol=1e-4, atol=1e-2)
+
+
 @pytest.mark.parametrize("turn_m", [None, 0.1])
 def test_guided_goal_distance_round_discs(turn_m: float | None) -> None:
     """With discs and a guide (Task IV): a field by heading is followed alone; a one-layer field, which lets

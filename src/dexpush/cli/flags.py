@@ -33,6 +33,7 @@ _PLANNER = {
     "--guidance-turn": ("guidance_turn", ("weights", "guidance_turn_m")),
     "--guidance-goal-heading": ("guidance_goal_heading", ("weights", "guidance_goal_heading")),
     "--guidance-pusher-room": ("guidance_pusher_room", ("weights", "guidance_pusher_room")),
+    "--guidance-running": ("guidance_running", ("weights", "guidance_running")),
     "--stall-after": ("stall_after", ("stall", "after_s")),
     "--temperature": ("temperature", ("mppi", "temperature")),
     "--spread-cap": ("spread_cap", ("mppi", "spread_cap")),
@@ -70,6 +71,10 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
                    help="each move of the cost-to-go's way needs room for the pusher behind the object, or only "
                         "room for the footprint (--no-guidance-pusher-room, the default; "
                         "weights.guidance_pusher_room; docs/workspaces.md#the-pushers-room-2026-12-07)")
+    g.add_argument("--guidance-running", action=argparse.BooleanOptionalAction, default=None,
+                   help="the running cost's goal distance follows the cost-to-go too, or the straight distance "
+                        "and the detour round discs (--no-guidance-running, the default; weights.guidance_running; "
+                        "docs/workspaces.md#the-running-cost-along-the-way-2026-12-07)")
     g.add_argument("--stall-after", type=positive_or_off("a time in seconds"), default=None, metavar="SECONDS|off",
                    help="restart the planner after this long without progress and contact, or never (off) "
                         "(stall.after_s; docs/controller.md#stalls; default: 4)")

@@ -241,9 +241,11 @@ def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
 
 
 def running_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
-    """l(x) + P(x) of eq. (9c–9e) (P: :func:`obstacle_cost`) for states x ((..., 5) array or 5-tuple)."""
+    """l(x) + P(x) of eq. (9c–9e) (P: :func:`obstacle_cost`) for states x ((..., 5) array or 5-tuple). Its goal
+    distance is the straight one, or the detour round discs; along the cost-to-go too with
+    ``w.guidance_running``."""
     xb, yb, th, xc, yc = components(x)
-    d2 = _goal_distance_sq(xb, yb, th, scene, w.c, guided=False)
+    d2 = _goal_distance_sq(xb, yb, th, scene, w.c, guided=w.guidance_running)
     gap = jnp.sqrt((xc - xb) ** 2 + (yc - yb) ** 2)
     cost = w.q_r1 * d2 + w.q_r2 * jnp.maximum(gap - scene.r_s, 0.0)
     if not scene.has_obstacles:

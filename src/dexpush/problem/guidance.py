@@ -221,19 +221,13 @@ def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, di
                     time.perf_counter() - t0)
 
 
-def _support_points(polygons: tuple[np.ndarray, ...], directions: np.ndarray, cell: float) -> np.ndarray:
-    """For each unit direction w (n, 2) in {B}, the outline point (n, 2) farthest along w, the one nearest the
-    line through the reference along w among those within a quarter cell of the farthest."""
-    outline = []
-    for p in polygons:
-        for a, b in zip(p, np.roll(p, -1, axis=0), strict=True):
-            k = max(int(np.ceil(np.hypot(*(b - a)) / (cell / 4))), 1)
-            outline.append(a + (b - a) * (np.arange(k) / k)[:, None])
-    pts = np.concatenate(outline)
-    along = directions @ pts.T                                                    # (n, P)
-    across = np.abs(directions[:, :1] * pts[:, 1] - directions[:, 1:] * pts[:, 0])
+def _support_points(outline: np.ndarray, directions: np.ndarray, cell: float) -> np.ndarray:
+    """For each unit direction w (n, 2) in {B}, the ``outline`` point (of (P, 2)) farthest along w, the one
+    nearest the line through the reference along w among those within a quarter cell of the farthest."""
+    along = directions @ outline.T                                                # (n, P)
+    across = np.abs(directions[:, :1] * outline[:, 1] - directions[:, 1:] * outline[:, 0])
     near_back = along >= along.max(1, keepdims=True) - cell / 4
-    return pts[np.argmin(np.where(near_back, across, np.inf), axis=1)]
+    return outline[np.argmin(np.where(near_back, across, np.inf), axis=1)]
 
 
 def _pusher_room(polygons: tuple[np.ndarray, ...], pusher_clear: np.ndarray, extra: int, shape: np.ndarray,
@@ -241,13 +235,19 @@ def _pusher_room(polygons: tuple[np.ndarray, ...], pusher_clear: np.ndarray, ext
     """``room[m, k, i, j]``: with the object at node (i, j) in heading θ_k, a pusher disc of ``radius`` fits
     (``pusher_clear`` on the grid padded by ``extra``) where it touches the footprint on the side of move m's
     direction, so that it can push the object the other way."""
+    pieces = []
+    for p in polygons:                                     # the outline every quarter cell
+        for a, b in zip(p, np.roll(p, -1, axis=0), strict=True):
+            k = max(int(np.ceil(np.hypot(*(b - a)) / (cell / 4))), 1)
+            pieces.append(a + (b - a) * (np.arange(k) / k)[:, None])
+    outline = np.concatenate(pieces)
     moves = _MOVES / np.hypot(*_MOVES.T)[:, None]
     room = np.empty((len(_MOVES), HEADINGS, *shape), bool)
     for k in range(HEADINGS):
         th = 2 * np.pi * k / HEADINGS
         c, s = np.cos(th), np.sin(th)
         to_body = moves @ np.array([[c, -s], [s, c]])                                # w in {B}, rows
-        centres = _support_points(polygons, to_body, cell) + radius * to_body
+        centres = _support_points(outline, to_body, cell) + radius * to_body
         offsets = np.round(centres @ np.array([[c, s], [-s, c]]) / cell).astype(int)  # in {W}, cells
         for m, (di, dj) in enumerate(offsets):
             room[m, k] = pusher_clear[extra + di:extra + di + shape[0], extra + dj:extra + dj + shape[1]]

@@ -59,6 +59,10 @@ class CostWeights:
     #: that the way does not lead where the object can be pushed in but not out; False: where the footprint
     #: fits. See docs/workspaces.md#the-pushers-room-2026-12-07.
     guidance_pusher_room: bool = False
+    #: the running cost's goal distance too follows the cost-to-go (where there is one), so that running and
+    #: terminal cost agree on the way round; False: the straight distance, or the detour round discs.
+    #: See docs/workspaces.md#the-running-cost-along-the-way-2026-12-07.
+    guidance_running: bool = False
 
     def __post_init__(self) -> None:
         for name in ("q_f", "q_r1", "q_r2", "c"):
