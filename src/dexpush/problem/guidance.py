@@ -134,18 +134,23 @@ def nearest_layer(heading: float, layers: int) -> int:
 
 def _footprint_samples(polygons: tuple[np.ndarray, ...], cell: float) -> np.ndarray:
     """Points (n, 2) in {B}: each polygon's outline every cell/2 and its inside every cell."""
-    pts = []
-    for p in polygons:
-        for a, b in zip(p, np.roll(p, -1, axis=0), strict=True):
-            k = max(int(np.ceil(np.hypot(*(b - a)) / (cell / 2))), 1)
-            pts.append(a + (b - a) * (np.arange(k) / k)[:, None])
     lo, hi = np.min(np.concatenate(polygons), 0), np.max(np.concatenate(polygons), 0)
     gx, gy = np.meshgrid(np.arange(lo[0], hi[0], cell), np.arange(lo[1], hi[1], cell), indexing="ij")
     grid = np.stack([gx.ravel(), gy.ravel()], -1)
     inside = np.zeros(len(grid), bool)
     for p in polygons:
         inside |= inside_polygon(grid, p).reshape(-1).astype(bool)
-    return np.concatenate([*pts, grid[inside]])
+    return np.concatenate([_outline(polygons, cell / 2), grid[inside]])
+
+
+def _outline(polygons: tuple[np.ndarray, ...], step: float) -> np.ndarray:
+    """Points (n, 2) along each polygon's outline, at most ``step`` apart, from each corner on."""
+    pts = []
+    for p in polygons:
+        for a, b in zip(p, np.roll(p, -1, axis=0), strict=True):
+            k = max(int(np.ceil(np.hypot(*(b - a)) / step)), 1)
+            pts.append(a + (b - a) * (np.arange(k) / k)[:, None])
+    return np.concatenate(pts)
 
 
 def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, discs: np.ndarray,
@@ -235,12 +240,7 @@ def _pusher_room(polygons: tuple[np.ndarray, ...], pusher_clear: np.ndarray, ext
     """``room[m, k, i, j]``: with the object at node (i, j) in heading θ_k, a pusher disc of ``radius`` fits
     (``pusher_clear`` on the grid padded by ``extra``) where it touches the footprint on the side of move m's
     direction, so that it can push the object the other way."""
-    pieces = []
-    for p in polygons:                                     # the outline every quarter cell
-        for a, b in zip(p, np.roll(p, -1, axis=0), strict=True):
-            k = max(int(np.ceil(np.hypot(*(b - a)) / (cell / 4))), 1)
-            pieces.append(a + (b - a) * (np.arange(k) / k)[:, None])
-    outline = np.concatenate(pieces)
+    outline = _outline(polygons, cell / 4)
     moves = _MOVES / np.hypot(*_MOVES.T)[:, None]
     room = np.empty((len(_MOVES), HEADINGS, *shape), bool)
     for k in range(HEADINGS):
