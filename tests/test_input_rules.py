@@ -180,8 +180,11 @@ def test_the_guidance_goal_heading_flag_sets_its_weight(capsys) -> None:
     assert "guidance_goal_heading = true" in capsys.readouterr().out
     assert main(["run", "--task", "IV", "--no-guidance-goal-heading", "--print-config"]) == 0
     assert "guidance_goal_heading = false" in capsys.readouterr().out
-    assert main(["run", "--task", "IV", "--guidance-pusher-room", "--print-config"]) == 0
-    assert "guidance_pusher_room = true" in capsys.readouterr().out
+    for flag, key in (("guidance-pusher-room", "guidance_pusher_room"), ("guidance-running", "guidance_running")):
+        assert main(["run", "--task", "IV", f"--{flag}", "--print-config"]) == 0
+        assert f"{key} = true" in capsys.readouterr().out
+        assert main(["run", "--task", "IV", f"--no-{flag}", "--print-config"]) == 0
+        assert f"{key} = false" in capsys.readouterr().out
 
 
 def test_camera_flags_change_one_key_each(tmp_path, capsys) -> None:

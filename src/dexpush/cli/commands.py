@@ -22,7 +22,8 @@ from dexpush.experiments.registry import PARAMS, SHAPES
 if TYPE_CHECKING:
     from dexpush.robot.safety import SafetySettings
 
-__all__ = ["cmd_bench", "cmd_fit", "cmd_robot", "cmd_run", "cmd_validate", "effective_config"]
+__all__ = ["cmd_bench", "cmd_fit", "cmd_robot", "cmd_run", "cmd_validate", "effective_config", "given_flags",
+           "safety_settings"]
 
 
 def _episode_files(episode, shape, out: Path, animation: bool, control_period: float = CONTROL_PERIOD_S,
@@ -192,7 +193,7 @@ def cmd_clear(args: argparse.Namespace) -> dict:
                                                          "video": record.get("video")}}
 
 
-def given_flags(args: argparse.Namespace, **fields: str) -> dict:
+def given_flags(args: argparse.Namespace, **fields: str) -> dict[str, object]:
     """The settings fields (name → the flag's dest) whose flags were given: the settings' own defaults stand for
     the rest, so that a default is written once, in its settings class."""
     return {name: getattr(args, dest) for name, dest in fields.items() if getattr(args, dest, None) is not None}

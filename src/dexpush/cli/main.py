@@ -147,15 +147,22 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument("--robot", metavar="ADDRESS", default=None, help="a real Franka's FCI address")
     share_run_flags(rob, what, how, skip=("print_config",))
     safe = rob.add_argument_group("robot and safety filter")
+    from dexpush.robot.driver import DriverSettings
+    from dexpush.robot.safety import SafetySettings
+    from dexpush.robot.smoothing import SmoothingSettings
+
+    safety, driver, smoothing = SafetySettings(), DriverSettings(), SmoothingSettings()
     safe.add_argument("--v-limit", type=positive_float, default=None,
-                      help="the filter's speed limit (m/s, default 0.15)")
+                      help=f"the filter's speed limit (m/s, default {safety.v_max:g})")
     safe.add_argument("--a-limit", type=positive_float, default=None,
-                      help="the filter's acceleration limit (m/s², default 2.5)")
+                      help=f"the filter's acceleration limit (m/s², default {safety.a_max:g})")
     safe.add_argument("--dynamics-factor", type=positive_float, default=None,
-                      help="fraction of the Franka's velocity, acceleration and jerk limits (default 0.2)")
+                      help=f"fraction of the Franka's velocity, acceleration and jerk limits "
+                           f"(default {driver.dynamics_factor:g})")
     safe.add_argument("--cutoff-frequency", type=positive_float, default=None, metavar="HZ",
-                      help="libfranka's low-pass filter on the velocity stream (Hz; default: off, 1000; libfranka's "
-                           "own default is 100; docs/robot.md#libfrankas-filter)")
+                      help=f"libfranka's low-pass filter on the velocity stream (Hz; default "
+                           f"{driver.cutoff_frequency:g}: 1000 is off; libfranka's own default is 100; "
+                           "docs/robot.md#libfrankas-filter)")
     add_planner_flags(rob)
     add_camera_flags(rob)
     episode_args(rob, "out/robot")
@@ -202,10 +209,12 @@ def build_parser() -> argparse.ArgumentParser:
                          "continuous commands)")
     rg.add_argument("--stream-rate", type=positive_float, default=250.0, help="with --smooth (Hz, default 250)")
     rg.add_argument("--a-limit", type=positive_float, default=None,
-                    help="acceleration limit of the filter and the stream (m/s², default 2.5)")
+                    help=f"acceleration limit of the filter and of the stream (m/s², default {safety.a_max:g} and "
+                         f"{smoothing.a_max:g})")
     rg.add_argument("--j-limit", type=positive_float, default=None,
-                    help="with --smooth: jerk limit (m/s³, default 250)")
-    rg.add_argument("--v-limit", type=positive_float, default=None, help="the filter's speed limit (m/s, default 0.15)")
+                    help=f"with --smooth: jerk limit (m/s³, default {smoothing.j_max:g})")
+    rg.add_argument("--v-limit", type=positive_float, default=None,
+                    help=f"the filter's speed limit (m/s, default {safety.v_max:g})")
     rg.add_argument("--duration", type=positive_float, default=None, help="stop after this many seconds")
     rg.add_argument("--until-reached", action="store_true", help="stop once the goal is reached")
     rg.add_argument("--node-name", default="dexpush", help="the node's name (default dexpush)")

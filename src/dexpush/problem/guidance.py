@@ -28,7 +28,10 @@ touching the footprint in θ_k at its support point in direction −u (the outli
 nearest the line through the reference among ties), keeps the margin to every obstacle. A pusher cannot pull,
 so no way leads out of a pocket the object fills, and the graph is directed (Dijkstra runs on its transpose,
 from the goal). A node where the footprint fits but no way leads to the goal is a trap: its V is the nearest
-reached node's plus the distance plus :data:`TRAP_M`, so that the planner does not push the object in.
+reached node's plus the distance plus :data:`TRAP_M`, so that the planner does not push the object in. Three
+approximations: a turn between layers needs no room (turning in place is a push off the centre, from
+somewhere); a move checks the room where the object starts it only; and nodes where the footprint does not
+fit keep the nearest reached node's V without the trap's addition (the obstacle cost holds the object there).
 
 The cost (:func:`dexpush.problem.cost.guided_length_sq`) uses ℓ = max(‖p − g‖, (V(p, θ) − h)/(1 + κ)), κ =
 :data:`GRID_STRETCH`: ℓ is the straight-line distance wherever the way to the goal is straight and free
@@ -186,7 +189,7 @@ def cost_to_go(footprint: tuple[np.ndarray, ...], reach: float, goal: object, di
     shape = np.maximum(np.ceil((hi - lo) / cell - 1e-9).astype(int) + 1, 2)
     shape = -(-shape // GRID_BLOCK) * GRID_BLOCK          # a few grid sizes: a family of problems shares compiled code
     # room for the footprint's samples (and the pusher behind it) beyond the grid
-    extra = int(np.ceil((reach + 2 * (pusher_radius or 0.0)) / cell)) + 1
+    extra = int(np.ceil((reach + (pusher_radius or 0.0)) / cell)) + 1
     ix = np.arange(-extra, shape[0] + extra) * cell + lo[0]
     iy = np.arange(-extra, shape[1] + extra) * cell + lo[1]
     nodes = np.stack(np.meshgrid(ix, iy, indexing="ij"), -1)
@@ -266,7 +269,8 @@ def _geodesic(free: np.ndarray, sources: list[tuple[int, int, int]], cell: float
               turn: float, room: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Path lengths (m) to the nearest of ``sources`` over the free nodes (K, nx, ny): in each layer a
     16-neighbour grid (a move's end nodes and the nodes it passes between must be free: no cutting a corner;
-    with ``room`` (moves, K, nx, ny) a move also needs the pusher's room behind the object where it starts),
+    with ``room`` (moves, K, nx, ny) a move also needs the pusher's room behind the object at the object's
+    start, src + (di, dj), of the edge src → src + (di, dj)),
     and between neighbouring layers (k, k + 1 mod K) at a node free in both a turn of length ``turn``. A node
     no path reaches gets its layer's nearest reached node's length plus the straight distance to it (the
     nearest in any layer where its layer has none), plus :data:`TRAP_M` at a free one with ``room``. Also the

@@ -172,15 +172,15 @@ class Problem:
             edge_bounds, bounds = bounds[edge], bounds[~edge]
         put(self, "region", region)
         put(self, "region_rows", goal_rows)
-        if self.weights.guidance_pusher_room and (object_bounds is not None or pusher_bounds is not None
-                                                  or len(keep_out)):
-            # the pusher's room is measured against the footprint's obstacles and bounds, not a robot's own
-            raise ValueError("weights.guidance_pusher_room is for scenes without object_workspace, pusher_workspace "
-                             "or keep_out (a robot's bounds); turn it off for this problem")
         guide = None
         # disc-only scenes keep the detour round the discs, a footprint's reach from each, alone
         # (docs/workspaces.md#discs-alone-keep-the-detour-2026-12-05)
         if self.weights.guidance and region is None and (polys or bounds is not None or len(keep_out)):
+            if self.weights.guidance_pusher_room and (object_bounds is not None or pusher_bounds is not None
+                                                      or len(keep_out)):
+                # the pusher's room is measured against the footprint's obstacles and bounds, not a robot's own
+                raise ValueError("weights.guidance_pusher_room is for scenes without object_workspace, "
+                                 "pusher_workspace or keep_out (a robot's bounds); turn it off for this problem")
             # the object's own bounds (a robot's reach) and keep-out discs bound its way too
             area = [rows for rows in (bounds, object_bounds) if rows is not None]
             guide = cost_to_go(self.shape.polygons, self.shape.bounding_radius, goal,
