@@ -280,7 +280,7 @@ def test_with_the_pushers_room_a_pocket_the_box_fills_is_a_trap() -> None:
     assert pushed.at(deep, 0.0) - fits.at(deep, 0.0) == pytest.approx(TRAP_M, abs=1e-5)
     for p in (room, np.array([0.0, -0.3]), np.array([0.2, 0.3])):
         assert pushed.at(p, 0.0) == pytest.approx(fits.at(p, 0.0), abs=1e-5)
-    # the way out of the pocket's mouth is a push from inside it, which has room; into it, from the open
+    # 6 cm from the edge the pusher fits behind the box, so a pushed way leads out
     assert pushed.connects(room)
     with pytest.raises(ValueError, match="pusher_radius"):
         cost_to_go(*args, pusher_radius=0.01)          # the room depends on the heading: layers are needed
