@@ -63,9 +63,9 @@ def main() -> None:
         return
     for robot in robots:
         margin = robot.workspace_margin
-        ep, _ = run_arm_problem(task, shape, seed=args.seed, settings=settings, robot=robot,
-                                sensor=SensorSettings.realistic(seed=0))
         placed = place_on_arm(task, shape, robot, args.seed, settings.weights)
+        ep, _ = run_arm_problem(task, shape, seed=args.seed, settings=settings, robot=robot,
+                                sensor=SensorSettings.realistic(seed=0), placed=placed)
         r = ep.record
         outcome = "success" if r.success else f"failure, {r.final_error_m * 100:.0f} cm from the goal"
         c = float(np.hypot(*placed.driver.to_base(np.asarray(placed.pose[:2] + placed.problem.goal[:2]) / 2)))
@@ -80,9 +80,9 @@ def main() -> None:
 def endgame(task: object, shape: object, seed: int, robot: RobotSettings, settings: object, since_s: float,
             name: str) -> None:
     """The end of one episode behind the safety filter, from ``since_s`` on, near the goal."""
-    ep, _ = run_arm_problem(task, shape, seed=seed, settings=settings, robot=robot,
-                            sensor=SensorSettings.realistic(seed=0), filtered=True)
     placed = place_on_arm(task, shape, robot, seed, settings.weights)
+    ep, _ = run_arm_problem(task, shape, seed=seed, settings=settings, robot=robot,
+                            sensor=SensorSettings.realistic(seed=0), filtered=True, placed=placed)
     r, T = ep.record, settings.mppi.control_period
     first = min(round(since_s / T), len(ep.states) - 1)
     outcome = "success" if r.success else f"failure, {r.final_error_m * 100:.1f} cm from the goal"

@@ -86,7 +86,7 @@ def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path
     assert main(["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi", "--seeds", "0",
                  "--max-steps", "2", "--lanes", "1", "--no-detour", "--stall-after", "off", "--temperature", "0.05",
                  "--endgame-temperature", "off", "--margin-cost", "off", "--mppi-update", "clipped",
-                 "--contact-proposals", "4", "--prediction-margin", "0.25", "--stall-horizon", "1.5",
+                 "--contact-proposals", "4", "--no-push-plan", "--prediction-margin", "0.25", "--stall-horizon", "1.5",
                  "--samples", "64", "--no-figures", "--quiet",
                  "--out", str(tmp_path)]) == 0
     controller = json.loads((tmp_path / "settings.json").read_text())["settings"]["controller"]
@@ -94,10 +94,12 @@ def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path
     assert controller["mppi"]["temperature"] == 0.05 and controller["endgame"]["temperature"] is None
     assert controller["weights"]["C_margin"] is None
     assert controller["mppi"]["update"] == "clipped" and controller["proposals"]["count"] == 4
+    assert controller["push_plan"]["enabled"] is False
     assert controller["prediction_margin"]["gain"] == 0.25 and controller["stall"]["horizon_scale"] == 1.5
     assert controller["mppi"]["num_samples"] == 64
     command = ("--no-detour --stall-after off --temperature 0.05 --endgame-temperature off --margin-cost off "
-               "--contact-proposals 4 --mppi-update clipped --prediction-margin 0.25 --stall-horizon 1.5 --samples 64")
+               "--contact-proposals 4 --no-push-plan --mppi-update clipped --prediction-margin 0.25 "
+               "--stall-horizon 1.5 --samples 64")
     assert command in (tmp_path / "benchmark.md").read_text()
     for bad in (["--stall-after", "0"], ["--temperature", "0"], ["--temperature", "nan"],
                 ["--endgame-temperature", "-1"], ["--margin-cost", "0"], ["--mppi-update", "mean"],

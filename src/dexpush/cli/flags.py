@@ -3,7 +3,8 @@ override of one key of the configuration (:mod:`dexpush.cli.config`), on top of 
 ``--config`` file, so the command line and the file are one way to say the same settings.
 
 * planner flags (:func:`add_planner_flags`): one field each of ``ControllerSettings`` (or of its
-  ``weights``, ``mppi``, ``stall``, ``endgame``, ``proposals``, ``prediction_margin``);
+  ``weights``, ``mppi``, ``stall``, ``endgame``, ``proposals``, ``push_plan``,
+  ``prediction_margin``);
 * camera flags (:func:`add_camera_flags`): ``--camera realistic`` starts from the realistic camera,
   the others set one key each of ``[sensor]`` on top of the file's, ``--camera exact`` with any
   of them is refused.
@@ -41,6 +42,7 @@ _PLANNER = {
     "--margin-cost": ("margin_cost", ("weights", "C_margin")),
     "--obstacle-margin": ("obstacle_margin", ("weights", "obstacle_margin_m")),
     "--contact-proposals": ("contact_proposals", ("proposals", "count")),
+    "--push-plan": ("push_plan", ("push_plan", "enabled")),
     "--mppi-update": ("mppi_update", ("mppi", "update")),
     "--prediction-margin": ("prediction_margin", ("prediction_margin", "gain")),
     "--stall-horizon": ("stall_horizon", ("stall", "horizon_scale")),
@@ -101,6 +103,10 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--contact-proposals", type=int, default=None, metavar="J",
                    help="J of MPPI's exploring samples walk round the object to J contact points and push "
                         "(proposals.count; docs/controller.md#contact-proposals; default: 0, none)")
+    g.add_argument("--push-plan", action=argparse.BooleanOptionalAction, default=None,
+                   help="after a stall, choose a push (where to stand, which way round, how far) past MPPI's "
+                        "horizon and carry it out (default), or restart MPPI alone (--no-push-plan; "
+                        "push_plan.enabled; docs/workspaces.md#a-push-plan-after-a-stall-2026-12-07)")
     g.add_argument("--mppi-update", choices=("sampled", "clipped"), default=None,
                    help="MPPI's update: average the sampled inputs and clip the average (sampled), or "
                         "average the clipped samples (clipped) (mppi.update; docs/controller.md#the-update; "
@@ -115,7 +121,7 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
 
 
 def _text(flag: str, value: Any) -> str:
-    if flag in ("--detour", "--guidance"):
+    if isinstance(value, bool):
         return f" {flag}" if value else f" --no-{flag[2:]}"
     return f" {flag} {value if isinstance(value, str) else f'{value:g}'}"
 

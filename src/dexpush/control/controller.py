@@ -161,6 +161,11 @@ class PushingController:
         return int(self.state.stalls)
 
     @property
+    def push_plans(self) -> int | None:
+        """Pushes chosen after a stall since :meth:`reset` (``ControllerSettings.push_plan``); None when off."""
+        return int(self.state.push.started) if self.settings.push_plan.enabled else None
+
+    @property
     def estimator_resets(self) -> int:
         """Times the estimator's state turned non-finite and was reset to the prior since :meth:`reset`."""
         return int(self.state.estimator.resets)

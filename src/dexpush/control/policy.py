@@ -24,6 +24,7 @@ from dexpush.common.se2 import wrap_angle
 from dexpush.control.estimator import EstimatorState, estimator_init, estimator_observe, rate_limited
 from dexpush.control.mppi import MPPIResult, mppi_iteration, shift_in_time, slot_durations
 from dexpush.control.proposals import contact_proposals
+from dexpush.control.push_plan import PushPlan, follow_push, push_plan_init, search_push
 from dexpush.control.settings import ControllerSettings
 from dexpush.model.cgvmm import Contour, contact_gap, step
 from dexpush.problem.cost import goal_distance_sq, plan_margin, running_cost, terminal_cost
@@ -47,6 +48,7 @@ class ControllerState(NamedTuple):
     stalls: jnp.ndarray          #: planner restarts after a stall (``ControllerSettings.stall.after_s``)
     streak: jnp.ndarray          #: restarts since the last progress (the clock's backoff exponent)
     stretch: jnp.ndarray         #: the horizon's current scale: 1, or ``stall.horizon_scale`` after a stall
+    push: PushPlan               #: the push being carried out after a stall (``ControllerSettings.push_plan``)
 
 
 def policy_init(params: object, settings: ControllerSettings, seed: int | jnp.ndarray,
@@ -58,7 +60,7 @@ def policy_init(params: object, settings: ControllerSettings, seed: int | jnp.nd
     return ControllerState(jnp.zeros((settings.mppi.horizon, 2), jnp.float32), jax.random.PRNGKey(seed), lam,
                            estimator_init(lam, settings.ukf, box, settings.mu), jnp.float32(settings.mu),
                            jnp.float32(jnp.inf), jnp.float32(0.0), jnp.int32(0), jnp.int32(0),
-                           jnp.float32(1.0))
+                           jnp.float32(1.0), push_plan_init())
 
 
 def estimate_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray | bool, *,
@@ -154,7 +156,7 @@ def _temperature(x: jnp.ndarray, scene: Scene, settings: ControllerSettings) -> 
 
 
 def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene: Scene,
-              settings: ControllerSettings, predicted_m: jnp.ndarray | float = 0.0
+              settings: ControllerSettings, predicted_m: jnp.ndarray | float = 0.0, batch_axis: str | None = None
               ) -> tuple[ControllerState, jnp.ndarray, MPPIResult]:
     """One MPPI iteration (eq. 9–10) from state ``x`` with λ_pred. Pure and jit-able.
 
@@ -167,9 +169,13 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
     has something to keep clear of (docs/controller.md#the-temperature-beside-obstacles). ``predicted_m`` is
     how far (m) the object's footprint moved in the prediction that made ``x`` from the newest frame (0 for an
     observation); the margin grows by ``prediction_margin.gain`` times it, up to ``prediction_margin.max_m`` more.
+    After a stall restart a push is searched and carried out past the horizon (``settings.push_plan``,
+    :mod:`dexpush.control.push_plan`); ``batch_axis``, the name of a ``vmap`` axis this runs under, lets a batch
+    search only in the periods where one of its members stalls.
     """
     mp = settings.mppi
     x = jnp.asarray(x, jnp.float32)
+    stalled = jnp.bool_(False)
     stretch = 1.0   # without a possible stretch the scale is a Python constant; a traced one reaches the
     if settings.stall.after_s is not None:      # rollouts as a factor on the inputs (rate_independent below)
         state, stalled = watch_progress(state, x, contour=contour, scene=scene, settings=settings)
@@ -194,13 +200,42 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
     finite = jnp.all(jnp.isfinite(result.sequence))
     u = jnp.where(finite, jnp.clip(result.sequence[0], -mp.v_clip, mp.v_clip), 0.0)
     shifted = jnp.where(finite, shift_in_time(result.sequence, durations, mp.control_period), 0.0)
+    if settings.push_plan.enabled and settings.stall.after_s is not None:
+        state, u = _push_plan(state, x, u, stalled, contour=contour, scene=plan_scene, settings=settings,
+                              batch_axis=batch_axis)
     return state._replace(sequence=shifted, key=key), u, result
+
+
+def _push_plan(state: ControllerState, x: jnp.ndarray, u: jnp.ndarray, stalled: jnp.ndarray, *, contour: Contour,
+               scene: Scene, settings: ControllerSettings,
+               batch_axis: str | None) -> tuple[ControllerState, jnp.ndarray]:
+    """After a stall restart, search a push (:func:`dexpush.control.push_plan.search_push`) and, while one is
+    being carried out, command it instead of MPPI's ``u`` (:func:`dexpush.control.push_plan.follow_push`); the
+    stall clock stands still meanwhile. Under ``vmap`` a per-member condition would be a select that searches
+    every period; with ``batch_axis`` the condition is whether any member needs a search."""
+    pp, mp, w = settings.push_plan, settings.mppi, settings.weights
+    args = (contour, scene, w, state.params, state.mu, pp, mp.v_clip)
+    need = stalled & ~state.push.active
+
+    def search() -> PushPlan:
+        found, plan = search_push(x, *args)
+        return jax.tree.map(lambda a, b: jnp.where(need & found, a, b), plan, push_plan_init())
+
+    run = need if batch_axis is None else jax.lax.psum(need.astype(jnp.int32), batch_axis) > 0
+    fresh = jax.lax.cond(run, search, push_plan_init)
+    plan = jax.tree.map(lambda a, b: jnp.where(fresh.active, a, b), fresh, state.push)
+    plan = plan._replace(started=state.push.started + fresh.active.astype(jnp.int32))
+    plan, u_plan, use = follow_push(plan, x, *args, mp.control_period)
+    u = jnp.where(use, jnp.clip(u_plan, -mp.v_clip, mp.v_clip), u)
+    return state._replace(push=plan, idle=jnp.where(use, 0.0, state.idle)), u
 
 
 def policy_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray | bool, *,
                 contour: Contour, scene: Scene,
-                settings: ControllerSettings) -> tuple[ControllerState, jnp.ndarray, MPPIResult]:
+                settings: ControllerSettings, batch_axis: str | None = None
+                ) -> tuple[ControllerState, jnp.ndarray, MPPIResult]:
     """One control period on a fresh, exact observation [x_b, y_b, θ, x_c, y_c] (paper Fig. 5):
-    :func:`estimate_step`, then :func:`plan_step` from the observed state. Pure and jit-able."""
+    :func:`estimate_step`, then :func:`plan_step` from the observed state (``batch_axis``: see there). Pure and
+    jit-able."""
     state = estimate_step(state, observation, estimate, contour=contour, settings=settings)
-    return plan_step(state, observation, contour=contour, scene=scene, settings=settings)
+    return plan_step(state, observation, contour=contour, scene=scene, settings=settings, batch_axis=batch_axis)

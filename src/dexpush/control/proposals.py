@@ -29,29 +29,33 @@ import numpy as np
 
 from dexpush.model.cgvmm import Contour
 
-__all__ = ["contact_proposals"]
+__all__ = ["contact_proposals", "walk_and_push"]
 
 #: points along each walk (the curve between them is taken as straight)
 WALK_POINTS = 48
 
 
-def contact_proposals(x: jnp.ndarray, contour: Contour, durations: jnp.ndarray, count: int, speed: float,
-                      clearance: float = 0.015) -> jnp.ndarray:
-    """``count`` input sequences (count, N, 2) in {W} for state ``x`` (5,) on the slots ``durations`` (N,).
-
-    Pure and jit-able; ``count`` is static. See the module docstring for the curve.
-    """
-    dtype = durations.dtype
+def _pusher_in_body(x: jnp.ndarray, dtype: jnp.dtype) -> tuple[jnp.ndarray, ...]:
+    """(x_b, y_b, cos θ, sin θ, b_x, b_y): the object's pose and the pusher's position in {B}."""
     xb, yb, th, xc, yc = (x[i].astype(dtype) for i in range(5))
     c, s = jnp.cos(th), jnp.sin(th)
     dx, dy = xc - xb, yc - yb
-    bx, by = c * dx + s * dy, -s * dx + c * dy                      # pusher in {B}
+    return xb, yb, c, s, c * dx + s * dy, -s * dx + c * dy
+
+
+def walk_curve(x: jnp.ndarray, contour: Contour, targets: jnp.ndarray, turns: jnp.ndarray,
+               clearance: float) -> tuple[jnp.ndarray, jnp.ndarray, jnp.ndarray]:
+    """The walks of the module docstring from state ``x`` (5,) to the azimuths ``targets`` (J,), turning
+    ``turns`` (J,) radians on the way (signed: counter-clockwise positive; the short way round is
+    wrap(φ_j − φ₀), the long way that less 2π·sign). Returns (points (J, M, 2) in {B}, arc length (J, M)
+    from the pusher, inward normal at each target (J, 2) in {B}). Pure and jit-able."""
+    dtype = targets.dtype
+    _, _, _, _, bx, by = _pusher_in_body(x, dtype)
     phi0, r0 = jnp.arctan2(by, bx), jnp.hypot(bx, by)
     R0, _ = contour.lookup(phi0)
-    targets = jnp.asarray(2 * np.pi * np.arange(count) / count - np.pi, dtype)        # (J,)
-    turn = jnp.arctan2(jnp.sin(targets - phi0), jnp.cos(targets - phi0))              # shortest way round
+    count = targets.shape[0]
     sgrid = jnp.asarray(np.linspace(0.0, 1.0, WALK_POINTS), dtype)                    # (M,)
-    phi = phi0 + turn[:, None] * sgrid[None, :]                                       # (J, M)
+    phi = phi0 + turns[:, None] * sgrid[None, :]                                      # (J, M)
     R, _ = contour.lookup(phi)
     rho = R + clearance + (r0 - R0 - clearance) * (1.0 - sgrid) ** 4
     walk = jnp.stack([rho * jnp.cos(phi), rho * jnp.sin(phi)], -1)                   # (J, M, 2)
@@ -63,16 +67,42 @@ def contact_proposals(x: jnp.ndarray, contour: Contour, durations: jnp.ndarray, 
     ty = dRt * jnp.sin(targets) + Rt * jnp.cos(targets)
     norm = jnp.hypot(tx, ty)
     inward = jnp.stack([-ty / norm, tx / norm], -1)                                  # (J, 2), CCW contour
+    return walk, arc, inward
+
+
+def walk_and_push(x: jnp.ndarray, contour: Contour, durations: jnp.ndarray, targets: jnp.ndarray,
+                  turns: jnp.ndarray, speed: float | jnp.ndarray, clearance: float,
+                  push_m: float | jnp.ndarray = jnp.inf) -> jnp.ndarray:
+    """Input sequences (J, N, 2) in {W} on the slots ``durations`` (N,): each walk of :func:`walk_curve`
+    followed at ``speed``, then a push along the target's inward normal for ``push_m`` (m, scalar or (J,);
+    the pusher then holds still). Pure and jit-able."""
+    dtype = durations.dtype
+    _, _, c, s, bx, by = _pusher_in_body(x, dtype)
+    walk, arc, inward = walk_curve(x, contour, targets, turns, clearance)
     # where the curve is at the end of each slot
     ends = jnp.cumsum(durations) * speed                                              # (N,) distance travelled
     total = arc[:, -1:]                                                               # (J, 1)
     along = jnp.minimum(ends[None, :], total)                                         # (J, N)
     interp = jax.vmap(jnp.interp)                                                     # one walk a row
     px, py = interp(along, arc, walk[..., 0]), interp(along, arc, walk[..., 1])
-    beyond = jnp.maximum(ends[None, :] - total, 0.0)                                  # (J, N) pushing
+    beyond = jnp.clip(ends[None, :] - total, 0.0, jnp.reshape(jnp.asarray(push_m, dtype), (-1, 1)))  # (J, N)
     pos = jnp.stack([px, py], -1) + beyond[..., None] * inward[:, None, :]            # (J, N, 2) in {B}
     start = jnp.stack([bx, by])
-    prev = jnp.concatenate([jnp.broadcast_to(start, (count, 1, 2)), pos[:, :-1]], 1)
+    prev = jnp.concatenate([jnp.broadcast_to(start, (targets.shape[0], 1, 2)), pos[:, :-1]], 1)
     vb = (pos - prev) / durations[None, :, None]                                     # {B} velocities
     return jnp.stack([c * vb[..., 0] - s * vb[..., 1], s * vb[..., 0] + c * vb[..., 1]], -1)
 
+
+def contact_proposals(x: jnp.ndarray, contour: Contour, durations: jnp.ndarray, count: int, speed: float,
+                      clearance: float = 0.015) -> jnp.ndarray:
+    """``count`` input sequences (count, N, 2) in {W} for state ``x`` (5,) on the slots ``durations`` (N,),
+    each the short way round to its target and pushing to the horizon's end.
+
+    Pure and jit-able; ``count`` is static. See the module docstring for the curve.
+    """
+    dtype = durations.dtype
+    _, _, _, _, bx, by = _pusher_in_body(x, dtype)
+    phi0 = jnp.arctan2(by, bx)
+    targets = jnp.asarray(2 * np.pi * np.arange(count) / count - np.pi, dtype)        # (J,)
+    turn = jnp.arctan2(jnp.sin(targets - phi0), jnp.cos(targets - phi0))              # shortest way round
+    return walk_and_push(x, contour, durations, targets, turn, speed, clearance)

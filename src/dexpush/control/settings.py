@@ -6,6 +6,7 @@ defaults and where it is measured:
 * :class:`StallSettings`: the stall watch (docs/controller.md#stalls);
 * :class:`EndgameSettings`: the colder temperature near the goal (docs/controller.md#the-endgame-temperature);
 * :class:`ProposalSettings`: contact proposals among MPPI's samples (docs/controller.md#contact-proposals);
+* :class:`PushPlanSettings`: a push chosen after a stall (docs/workspaces.md#a-push-plan-after-a-stall-2026-12-07);
 * :class:`PredictionMarginSettings`: the obstacle margin's growth with the prediction from a late
   frame (docs/controller.md#the-margin-grows-with-the-prediction).
 
@@ -23,10 +24,12 @@ from dexpush.common.checks import check_nonnegative, check_positive
 from dexpush.common.settings import grouped
 from dexpush.control.estimator import UKFSettings
 from dexpush.control.mppi import MPPISettings
+from dexpush.control.push_plan import PushPlanSettings
 from dexpush.model.cgvmm import MU_C
 from dexpush.problem.weights import CostWeights
 
-__all__ = ["ControllerSettings", "EndgameSettings", "PredictionMarginSettings", "ProposalSettings", "StallSettings"]
+__all__ = ["ControllerSettings", "EndgameSettings", "PredictionMarginSettings", "ProposalSettings", "PushPlanSettings",
+           "StallSettings"]
 
 
 def _whole(name: str, value: object, low: int) -> None:
@@ -135,12 +138,13 @@ class ControllerSettings:
     stall: StallSettings = field(default_factory=StallSettings)
     endgame: EndgameSettings = field(default_factory=EndgameSettings)
     proposals: ProposalSettings = field(default_factory=ProposalSettings)
+    push_plan: PushPlanSettings = field(default_factory=PushPlanSettings)
     prediction_margin: PredictionMarginSettings = field(default_factory=PredictionMarginSettings)
 
     def __post_init__(self) -> None:
         for name, kind in (("mppi", MPPISettings), ("weights", CostWeights), ("ukf", UKFSettings),
                            ("stall", StallSettings), ("endgame", EndgameSettings), ("proposals", ProposalSettings),
-                           ("prediction_margin", PredictionMarginSettings)):
+                           ("push_plan", PushPlanSettings), ("prediction_margin", PredictionMarginSettings)):
             if not isinstance(getattr(self, name), kind):
                 raise ValueError(f"{name} must be a {kind.__name__}, got {getattr(self, name)!r}")
         check_positive("mu", self.mu, "pusher–object friction coefficient")

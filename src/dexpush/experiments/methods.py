@@ -92,7 +92,8 @@ class MPPI(Method):
         return PushingController(problem, params=params, settings=settings, seed=seed)
 
     def diagnostics(self, result: TrialResult) -> dict[str, Any]:
-        return {"stall_resets": result.stall_resets}
+        plans = {} if result.push_plans is None else {"push_plans": result.push_plans}
+        return {"stall_resets": result.stall_resets, **plans}
 
 
 class MPPIWithUKF(MPPI):

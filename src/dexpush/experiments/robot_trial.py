@@ -260,9 +260,11 @@ def guarded_controller(controller: Any, problem: Problem, robot: RobotSettings, 
 def run_arm_problem(task: Task, shape: Shape, *, params: str | object = "unknown", method: str | Method = "mppi-ukf",
                     seed: int = 0, settings: ControllerSettings | None = None, sensor: Any = None,
                     robot: RobotSettings | None = None, plant: str = "physics", max_steps: int = MAX_STEPS,
-                    filtered: bool = False, progress: bool = False) -> tuple[Episode, dict]:
+                    filtered: bool = False, progress: bool = False,
+                    placed: ArmPlacement | None = None) -> tuple[Episode, dict]:
     """One episode of the problem the planner solves on the simulated robot (placed and bounded as
-    :func:`run_robot_episode` places and bounds it) on ``plant`` without the arm: the pusher moves as
+    :func:`run_robot_episode` places and bounds it; ``placed``: that placement, :func:`place_on_arm` of the same
+    task, shape, robot, seed and weights, where the caller has it) on ``plant`` without the arm: the pusher moves as
     commanded, with no robot clock, and with no frame guard or safety filter unless ``filtered`` (then the
     robot's own, :class:`GuardedController` with :func:`arm_safety`, the pusher's position carried from the
     frames). What fails here is the planner's in the arm's band; what fails only on the robot is the arm's
@@ -275,7 +277,7 @@ def run_arm_problem(task: Task, shape: Shape, *, params: str | object = "unknown
     robot = robot or RobotSettings()
     settings = settings or ControllerSettings()
     method = get_method(method)
-    placed = place_on_arm(task, shape, robot, seed, settings.weights)
+    placed = placed or place_on_arm(task, shape, robot, seed, settings.weights)
     problem, driver, pose, pusher = placed.problem, placed.driver, placed.pose, placed.pusher
     runs = method
     if filtered:

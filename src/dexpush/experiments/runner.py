@@ -121,6 +121,7 @@ def run_loop(plant: Plant, controller: Controller, problem: Problem, *args: obje
                        tuple(getattr(controller, "planning_s", ())),
                        *(getattr(controller, name, None) for name in ESTIMATOR_COUNTERS),
                        stall_resets=getattr(controller, "stall_resets", None),
+                       push_plans=getattr(controller, "push_plans", None),
                        frames=None if sensor.perfect else camera.counts())
 
 

@@ -82,11 +82,16 @@ class TrialResult:
     estimator_updates: int | None = None  #: informative windows that updated the estimate
     gated_windows: int | None = None      #: of those, windows the innovation gate down-weighted
     stall_resets: int | None = None       #: planner restarts after a stall (MPPI controllers)
+    push_plans: int | None = None         #: pushes chosen after a stall (MPPI with ``push_plan.enabled``)
     frames: dict | None = None            #: what a camera did (:meth:`dexpush.world.sensing.Camera.counts`)
 
     @property
     def steps(self) -> int:
         return len(self.commands)
+
+
+#: the name of the lanes' ``vmap`` axis: the controller searches a push plan only where a lane needs one
+LANE_AXIS = "lanes"
 
 
 class Lane(NamedTuple):
@@ -102,7 +107,8 @@ class Lane(NamedTuple):
 def _lane_step(lane: Lane, estimate: jnp.ndarray, max_steps: jnp.ndarray, contour: Contour, scene: Scene,
                plant_params: jnp.ndarray, plant_mu: jnp.ndarray, settings: ControllerSettings,
                substeps: int, tolerance: tuple[float, float]) -> tuple[Lane, tuple[jnp.ndarray, ...]]:
-    policy, u, _ = policy_step(lane.policy, lane.x, estimate, contour=contour, scene=scene, settings=settings)
+    policy, u, _ = policy_step(lane.policy, lane.x, estimate, contour=contour, scene=scene, settings=settings,
+                               batch_axis=LANE_AXIS)
     x1 = integrate(contour, lane.x, u, jnp.float32(settings.mppi.control_period), plant_params, plant_mu,
                    substeps)
     ok = reached(x1[:3], scene, *tolerance)
@@ -119,7 +125,7 @@ def _advance(lanes: Lane, estimate: jnp.ndarray, max_steps: jnp.ndarray, contour
     """``length`` control periods of every lane: (lanes, logs (length, B, ...))."""
     one = partial(_lane_step, max_steps=max_steps, contour=contour, scene=scene, plant_params=plant_params,
                   plant_mu=plant_mu, settings=settings, substeps=substeps, tolerance=tolerance)
-    batched = jax.vmap(one)
+    batched = jax.vmap(one, axis_name=LANE_AXIS)
     return jax.lax.scan(lambda c, _: batched(c, estimate), lanes, None, length=length)
 
 
@@ -195,7 +201,7 @@ def simulate(problem: Problem, trials: Sequence[TrialSpec], settings: Controller
     args = (contour, scene, jnp.asarray(true_params, jnp.float32), jnp.float32(plant_mu))
     bar = progress_bar(len(trials), desc, "trial", progress)
 
-    def finish(i: int, lane_success: bool, counts: tuple[int, ...] = (0, 0, 0, 0, 0)) -> None:
+    def finish(i: int, lane_success: bool, counts: tuple[int, ...] = (0, 0, 0, 0, 0, 0)) -> None:
         log = logs.pop(i)
         def cat(parts: list[np.ndarray], width: int) -> np.ndarray:
             return np.concatenate(parts).reshape(-1, width) if parts else np.zeros((0, width))
@@ -203,7 +209,8 @@ def simulate(problem: Problem, trials: Sequence[TrialSpec], settings: Controller
         res = TrialResult(trials[i], lane_success, np.concatenate([log["x0"], *log["x"]]), cat(log["u"], 2),
                           cat(log["lam"], 3), np.concatenate(log["ms"]) if log["ms"] else np.zeros(0),
                           rejected_frames=counts[0], estimator_resets=counts[1], estimator_updates=counts[2],
-                          gated_windows=counts[3], stall_resets=counts[4])
+                          gated_windows=counts[3], stall_resets=counts[4],
+                          push_plans=counts[5] if settings.push_plan.enabled else None)
         results[i] = res
         if on_result is not None:
             on_result(res)
@@ -237,7 +244,7 @@ def simulate(problem: Problem, trials: Sequence[TrialSpec], settings: Controller
         done, success = np.asarray(batch.done), np.asarray(batch.success)
         est = batch.policy.estimator
         counters = np.stack([np.asarray(c) for c in (est.rejected, est.resets, est.updates, est.gated,
-                                                     batch.policy.stalls)], -1)
+                                                     batch.policy.stalls, batch.policy.push.started)], -1)
         # each lane's share of the step's wall time: a trial pays for its own lane, not for idle ones
         ms = (time.perf_counter() - t0) * 1e3 / (n_lanes * chunk)
         # touching an obstacle ends a trial as a failure (conventions.md#benchmark-tasks); checked on the logged

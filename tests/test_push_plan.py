@@ -1,0 +1,113 @@
+"""The push chosen after a stall (dexpush.control.push_plan): its search, carrying it out, its settings."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from dexpush import Shape
+from dexpush.control.mppi import MPPISettings
+from dexpush.control.policy import ControllerSettings, policy_init, policy_step
+from dexpush.control.push_plan import PushPlanSettings, follow_push, search_push
+from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C, integrate
+from dexpush.problem.cost import plan_margin
+from dexpush.problem.problem import Problem
+from dexpush.problem.regions import wall
+
+RECT = Shape.rectangle()
+MP = MPPISettings()
+PP = PushPlanSettings(enabled=True)
+LAM = jnp.asarray(LAMBDA_TRUE, jnp.float32)
+MU = jnp.float32(MU_C)
+
+
+def _search(problem: Problem, x: np.ndarray) -> tuple[bool, object]:
+    x = jnp.asarray(x, jnp.float32)
+    scene = plan_margin(x, problem.local_scene, problem.weights)
+    found, plan = jax.jit(search_push, static_argnames=("weights", "settings", "speed"))(
+        x, problem.contour, scene, weights=problem.weights, params=LAM, mu=MU, settings=PP, speed=MP.v_clip)
+    return bool(found), plan
+
+
+def _carry_out(problem: Problem, x: np.ndarray, plan: object, periods: int = 400) -> tuple[np.ndarray, np.ndarray]:
+    """Follow ``plan`` on the model plant (the model's own λ) until it ends: the states and the commands."""
+    follow = jax.jit(follow_push, static_argnames=("weights", "settings", "speed", "period"))
+    x = jnp.asarray(x, jnp.float32)
+    states, commands = [np.asarray(x)], []
+    for _ in range(periods):
+        scene = plan_margin(x, problem.local_scene, problem.weights)
+        plan, u, use = follow(plan, x, problem.contour, scene, weights=problem.weights, params=LAM, mu=MU, settings=PP,
+                              speed=MP.v_clip, period=MP.control_period)
+        if not bool(use):
+            break
+        commands.append(np.asarray(u))
+        x = integrate(problem.contour, x, u, jnp.float32(MP.control_period), LAM, MU, 10)
+        states.append(np.asarray(x))
+    return np.array(states), np.array(commands).reshape(-1, 2)
+
+
+def test_in_the_open_it_walks_behind_the_object_and_pushes_it_toward_the_goal() -> None:
+    problem = Problem(RECT, (0.0, 0.0, 0.0))
+    x = np.array([-0.3, 0.0, 0.0, -0.3, 0.15])          # the pusher above the box; the goal to its right
+    found, plan = _search(problem, x)
+    assert found and np.cos(float(plan.target)) < -0.9   # contact on the box's left side
+    assert float(plan.way) == 1.0                         # the short way round, counter-clockwise
+    states, commands = _carry_out(problem, x, plan)
+    assert len(commands) > 10 and np.all(np.isfinite(commands))
+    assert np.all(np.abs(commands) <= MP.v_clip * (1 + 1e-5))
+    assert np.hypot(*states[-1, :2]) < np.hypot(*x[:2]) - 0.05     # pushed toward the goal
+    assert states[-1, 0] - x[0] > 0.05
+
+
+def test_a_wall_beside_the_object_sends_the_walk_the_long_way_round() -> None:
+    """The box 5 mm above a wall, the pusher on its right, the push needed on its left: the short way (below,
+    clockwise) has no room for the pusher, so the walk goes over the top; no point of it or of the push enters
+    the wall's margin."""
+    barrier = wall(-0.7, -0.075, 0.15, -0.075, 0.02)    # its top face 5 mm below the box's bottom
+    problem = Problem(RECT, (0.0, 0.0, 0.0), polygons=(tuple(map(tuple, barrier)),))
+    x = np.array([-0.3, 0.0, 0.0, -0.3 + 0.13, -0.01])
+    found, plan = _search(problem, x)
+    assert found and np.cos(float(plan.target)) < -0.9
+    assert float(plan.way) == 1.0                         # the long way: counter-clockwise over the top
+    states, _ = _carry_out(problem, x, plan)
+    assert np.all(states[:, 4] > -0.06)                   # the pusher never went below the box
+    assert states[-1, 0] - x[0] > 0.03
+    assert not np.any(problem.collides(states))
+
+
+def test_nothing_is_chosen_when_no_push_gains() -> None:
+    problem = Problem(RECT, (0.0, 0.0, 0.0))
+    found, plan = _search(problem, np.array([0.004, 0.0, 0.0, -0.12, 0.0]))    # 4 mm from the goal
+    assert not found and not bool(plan.active)
+
+
+def test_until_a_stall_the_controller_commands_what_it_did_without_the_plan() -> None:
+    problem = Problem(RECT, (0.3, 0.1, 0.5))
+    x = jnp.asarray([0.0, 0.0, 0.0, -0.13, 0.0], jnp.float32)
+    runs = []
+    for pp in (PushPlanSettings(enabled=False), PP):
+        settings = ControllerSettings(mppi=MPPISettings(num_samples=64), push_plan=pp)
+        step = jax.jit(lambda s, o, settings=settings: policy_step(s, o, False, contour=problem.contour,
+                                                                   scene=problem.local_scene, settings=settings))
+        state = policy_init(LAMBDA_TRUE, settings, 3)
+        us = []
+        for _ in range(5):
+            state, u, _ = step(state, x)
+            us.append(np.asarray(u))
+        runs.append(np.array(us))
+        assert int(state.push.started) == 0
+    np.testing.assert_array_equal(runs[0], runs[1])
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"targets": 1}, "push_plan.targets must be a whole number >= 2"),
+    ({"lengths_m": ()}, "push_plan.lengths_m must be a non-empty list"),
+    ({"lengths_m": (0.05, -0.01)}, "push_plan.lengths_m must be a non-empty list"),
+    ({"enabled": "yes"}, "push_plan.enabled must be true or false"),
+    ({"tolerance": 0.0}, "push_plan.tolerance"),
+])
+def test_bad_settings_are_refused_in_one_line(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        PushPlanSettings(**kwargs)
