@@ -29,13 +29,13 @@ import numpy as np
 
 from dexpush.model.cgvmm import Contour
 
-__all__ = ["contact_proposals", "walk_and_push"]
+__all__ = ["contact_proposals", "pusher_in_body", "walk_and_push", "walk_curve"]
 
 #: points along each walk (the curve between them is taken as straight)
 WALK_POINTS = 48
 
 
-def _pusher_in_body(x: jnp.ndarray, dtype: jnp.dtype) -> tuple[jnp.ndarray, ...]:
+def pusher_in_body(x: jnp.ndarray, dtype: jnp.dtype) -> tuple[jnp.ndarray, ...]:
     """(x_b, y_b, cos θ, sin θ, b_x, b_y): the object's pose and the pusher's position in {B}."""
     xb, yb, th, xc, yc = (x[i].astype(dtype) for i in range(5))
     c, s = jnp.cos(th), jnp.sin(th)
@@ -50,7 +50,7 @@ def walk_curve(x: jnp.ndarray, contour: Contour, targets: jnp.ndarray, turns: jn
     wrap(φ_j − φ₀), the long way that less 2π·sign). Returns (points (J, M, 2) in {B}, arc length (J, M)
     from the pusher, inward normal at each target (J, 2) in {B}). Pure and jit-able."""
     dtype = targets.dtype
-    _, _, _, _, bx, by = _pusher_in_body(x, dtype)
+    _, _, _, _, bx, by = pusher_in_body(x, dtype)
     phi0, r0 = jnp.arctan2(by, bx), jnp.hypot(bx, by)
     R0, _ = contour.lookup(phi0)
     count = targets.shape[0]
@@ -77,7 +77,7 @@ def walk_and_push(x: jnp.ndarray, contour: Contour, durations: jnp.ndarray, targ
     followed at ``speed``, then a push along the target's inward normal for ``push_m`` (m, scalar or (J,);
     the pusher then holds still). Pure and jit-able."""
     dtype = durations.dtype
-    _, _, c, s, bx, by = _pusher_in_body(x, dtype)
+    _, _, c, s, bx, by = pusher_in_body(x, dtype)
     walk, arc, inward = walk_curve(x, contour, targets, turns, clearance)
     # where the curve is at the end of each slot
     ends = jnp.cumsum(durations) * speed                                              # (N,) distance travelled
@@ -101,7 +101,7 @@ def contact_proposals(x: jnp.ndarray, contour: Contour, durations: jnp.ndarray, 
     Pure and jit-able; ``count`` is static. See the module docstring for the curve.
     """
     dtype = durations.dtype
-    _, _, _, _, bx, by = _pusher_in_body(x, dtype)
+    _, _, _, _, bx, by = pusher_in_body(x, dtype)
     phi0 = jnp.arctan2(by, bx)
     targets = jnp.asarray(2 * np.pi * np.arange(count) / count - np.pi, dtype)        # (J,)
     turn = jnp.arctan2(jnp.sin(targets - phi0), jnp.cos(targets - phi0))              # shortest way round

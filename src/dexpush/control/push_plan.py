@@ -3,7 +3,8 @@
 MPPI's horizon sees a few seconds ahead, and its terminal cost, the cost-to-go V of the object
 (:mod:`dexpush.problem.guidance`), does not know where the pusher stands. When the pusher must walk
 half round the object before a push can lower V, and a wall or the table's edge blocks the short way,
-no sample within the horizon shows the gain, and the planner stalls (docs/workspaces.md#a-push-plan-after-a-stall).
+no sample within the horizon shows the gain, and the planner stalls
+(docs/workspaces.md#a-push-plan-after-a-stall-2026-12-07).
 After a stall restart (:func:`dexpush.control.policy.watch_progress`) :func:`search_push` looks further:
 for J contact azimuths φ_j in {B}, both ways round and L push lengths D_l, it takes
 
@@ -35,7 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive
-from dexpush.control.proposals import walk_and_push, walk_curve
+from dexpush.control.proposals import pusher_in_body, walk_and_push, walk_curve
 from dexpush.model.cgvmm import Contour, contact_gap, integrate
 from dexpush.problem.cost import goal_distance_sq, obstacle_cost
 from dexpush.problem.scene import Scene
@@ -140,10 +141,8 @@ def push_candidates(x: jnp.ndarray, contour: Contour, scene: Scene, weights: Cos
     dtype = jnp.float32
     J, clearance = settings.targets, settings.clearance_m
     lengths = jnp.asarray(settings.lengths_m, dtype)                                  # (L,)
-    xb, yb, th = x[0], x[1], x[2]
-    c, s = jnp.cos(th), jnp.sin(th)
-    bx = c * (x[3] - xb) + s * (x[4] - yb)
-    by = -s * (x[3] - xb) + c * (x[4] - yb)
+    xb, yb, c, s, bx, by = pusher_in_body(x, dtype)
+    th = x[2]
     phi0 = jnp.arctan2(by, bx)
     targets = jnp.asarray(2 * np.pi * np.arange(J) / J - np.pi, dtype)               # (J,)
     short = jnp.arctan2(jnp.sin(targets - phi0), jnp.cos(targets - phi0))
@@ -206,10 +205,7 @@ def follow_push(plan: PushPlan, x: jnp.ndarray, contour: Contour, scene: Scene, 
                 period: float) -> tuple[PushPlan, jnp.ndarray, jnp.ndarray]:
     """(plan, command, whether to use it) for one control period from state ``x`` (5,). Pure and jit-able."""
     dtype = jnp.float32
-    xb, yb, th = x[0], x[1], x[2]
-    c, s = jnp.cos(th), jnp.sin(th)
-    bx = c * (x[3] - xb) + s * (x[4] - yb)
-    by = -s * (x[3] - xb) + c * (x[4] - yb)
+    _, _, c, s, bx, by = pusher_in_body(x, dtype)
     phi = jnp.arctan2(by, bx)
     # the turn still to make, the plan's way round; a small overshoot counts as a small turn back
     ahead = jnp.mod(plan.way * (plan.target - phi), 2 * jnp.pi)
