@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from dexpush import Shape
+from dexpush.control.controller import PushingController
 from dexpush.control.mppi import MPPISettings
-from dexpush.control.policy import ControllerSettings, policy_init, policy_step
+from dexpush.control.policy import ControllerSettings
 from dexpush.control.push_plan import PushPlanSettings, follow_push, search_push
 from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C, integrate
 from dexpush.problem.cost import plan_margin
@@ -83,31 +84,15 @@ def test_nothing_is_chosen_when_no_push_gains() -> None:
     assert not found and not bool(plan.active)
 
 
-@pytest.fixture
-def no_persistent_cache() -> object:
-    """This test's two programs outside JAX's persistent cache: in the full suite (two workers sharing the cache)
-    writing one of them crashed XLA's executable serialization twice, and never alone or with this file alone."""
-    before = jax.config.jax_enable_compilation_cache
-    jax.config.update("jax_enable_compilation_cache", False)
-    yield
-    jax.config.update("jax_enable_compilation_cache", before)
-
-
-def test_until_a_stall_the_controller_commands_what_it_did_without_the_plan(no_persistent_cache: object) -> None:
+def test_until_a_stall_the_controller_commands_what_it_did_without_the_plan() -> None:
     problem = Problem(RECT, (0.3, 0.1, 0.5))
-    x = jnp.asarray([0.0, 0.0, 0.0, -0.13, 0.0], jnp.float32)
-    step = jax.jit(policy_step, static_argnames=("estimate", "settings"))
+    pose, pusher = (0.0, 0.0, 0.0), (-0.13, 0.0)
     runs = []
     for pp in (PushPlanSettings(enabled=False), PP):
-        settings = ControllerSettings(mppi=MPPISettings(num_samples=64), push_plan=pp)
-        state = policy_init(LAMBDA_TRUE, settings, 3)
-        us = []
-        for _ in range(5):
-            state, u, _ = step(state, x, estimate=False, contour=problem.contour, scene=problem.local_scene,
-                               settings=settings)
-            us.append(np.asarray(u))
-        runs.append(np.array(us))
-        assert int(state.push.started) == 0
+        ctrl = PushingController(problem, params=LAMBDA_TRUE, seed=3,
+                                 settings=ControllerSettings(mppi=MPPISettings(num_samples=64), push_plan=pp))
+        runs.append(np.array([ctrl.command(pose, pusher) for _ in range(5)]))
+        assert ctrl.push_plans == (0 if pp.enabled else None)
     np.testing.assert_array_equal(runs[0], runs[1])
 
 
