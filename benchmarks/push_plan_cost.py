@@ -5,12 +5,12 @@
 One compiled controller step (``plan_step``) for the clutter family's T (tuning seed 1068's layout, from
 its start), timed in alternating rounds:
 
-* without the push plan (the default);
+* without the push plan (``--no-push-plan``);
 * with it, between stalls: no plan is searched, the step only checks whether one is being followed;
 * with it, at a stall: every call is a stall restart that searches J = 16 contact points, both ways round,
   three push lengths (96 candidates: 32 walks checked against the obstacles, 48 pushes rolled through the
   C-GVMM). A robot's controller pays this once per stall; a batch of simulated lanes
-  (:mod:`dexpush.experiments.simulate`) pays it every step, its ``lax.cond`` being a select under ``vmap``.
+  (:mod:`dexpush.experiments.simulate`) pays it in every period where one of its lanes stalls.
 
 Run on an idle machine.
 """
@@ -45,8 +45,9 @@ def main() -> None:
     problem, q0, p0 = get_task("C").layout(shape, seed)
     o = problem.origin                          # the controller's frame: the goal's position at its origin
     x = np.array([q0[0] - o[0], q0[1] - o[1], q0[2], p0[0] - o[0], p0[1] - o[1]], np.float32)
-    base = ControllerSettings(mppi=MPPISettings(num_samples=args.samples), weights=problem.weights)
-    on = replace(base, push_plan=PushPlanSettings(enabled=True))
+    on = ControllerSettings(mppi=MPPISettings(num_samples=args.samples), weights=problem.weights,
+                            push_plan=PushPlanSettings(enabled=True))
+    base = replace(on, push_plan=PushPlanSettings(enabled=False))
     calls = {}
     for name, settings, stalled in (("without the push plan", base, False),
                                     ("push plan, between stalls", on, False),

@@ -1,6 +1,8 @@
 import os
 import sys
 
+import pytest
+
 sys.path.insert(0, os.path.dirname(__file__))  # tests/reference.py
 
 # the CLI turns on JAX's persistent compilation cache in ~/.cache; tests run it in-process and must not
@@ -46,3 +48,45 @@ def pytest_unconfigure(config) -> None:
         import shutil
 
         shutil.rmtree(folder, ignore_errors=True)
+
+
+def _memory_maps() -> int | None:
+    """How many memory mappings this process holds (Linux), else None."""
+    try:
+        with open("/proc/self/maps", "rb") as f:
+            return sum(1 for _ in f)
+    except OSError:
+        return None
+
+
+def _map_limit() -> int:
+    try:
+        with open("/proc/sys/vm/max_map_count") as f:
+            return int(f.read())
+    except (OSError, ValueError):
+        return 65530
+
+
+@pytest.fixture(autouse=True)
+def _release_compiled_programs(request):
+    """Free JAX's compiled programs after a test once this process holds half the mappings Linux allows.
+
+    XLA's CPU client maps each compiled kernel's code and data separately (about three mappings a kernel:
+    ``benchmarks/memory_maps.py``), and a program stays mapped while JAX caches it. An xdist worker that
+    compiles every module's programs reaches ``vm.max_map_count`` (65,530 by default) and LLVM's next
+    allocation fails ("Cannot allocate memory", then an abort or a segfault in XLA). ``jax.clear_caches()``
+    unmaps them; a later test reloads what it needs from the session's compile cache. With
+    ``DEXPUSH_TEST_MAPS_LOG=FILE`` each test that adds over 2,000 mappings, and each clearing, is logged."""
+    log = os.environ.get("DEXPUSH_TEST_MAPS_LOG")
+    before = _memory_maps() if log else None
+    yield
+    count = _memory_maps()
+    if count is None:
+        return
+    lines = [f"{request.node.nodeid} {before} -> {count}"] if before is not None and count - before > 2000 else []
+    if count > _map_limit() // 2 and "jax" in sys.modules:
+        sys.modules["jax"].clear_caches()
+        lines.append(f"{os.environ.get('PYTEST_XDIST_WORKER', 'main')} cleared: {count} -> {_memory_maps()}")
+    if log and lines:
+        with open(log, "a") as f:
+            f.write("".join(line + "\n" for line in lines))

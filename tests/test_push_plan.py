@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from dexpush import Shape
+from dexpush.control.controller import PushingController
 from dexpush.control.mppi import MPPISettings
+from dexpush.control.policy import ControllerSettings
 from dexpush.control.push_plan import PushPlanSettings, follow_push, search_push
 from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C, integrate
 from dexpush.problem.cost import plan_margin
@@ -36,17 +34,20 @@ def _search(problem: Problem, x: np.ndarray) -> tuple[bool, object]:
 
 def _carry_out(problem: Problem, x: np.ndarray, plan: object, periods: int = 400) -> tuple[np.ndarray, np.ndarray]:
     """Follow ``plan`` on the model plant (the model's own λ) until it ends: the states and the commands."""
-    follow = jax.jit(follow_push, static_argnames=("weights", "settings", "speed", "period"))
+    @jax.jit
+    def period(plan: object, x: jnp.ndarray) -> tuple:
+        scene = plan_margin(x, problem.local_scene, problem.weights)
+        plan, u, use = follow_push(plan, x, problem.contour, scene, problem.weights, LAM, MU, PP, MP.v_clip,
+                                   MP.control_period)
+        return plan, u, use, integrate(problem.contour, x, u, jnp.float32(MP.control_period), LAM, MU, 10)
+
     x = jnp.asarray(x, jnp.float32)
     states, commands = [np.asarray(x)], []
     for _ in range(periods):
-        scene = plan_margin(x, problem.local_scene, problem.weights)
-        plan, u, use = follow(plan, x, problem.contour, scene, weights=problem.weights, params=LAM, mu=MU, settings=PP,
-                              speed=MP.v_clip, period=MP.control_period)
+        plan, u, use, x = period(plan, x)
         if not bool(use):
             break
         commands.append(np.asarray(u))
-        x = integrate(problem.contour, x, u, jnp.float32(MP.control_period), LAM, MU, 10)
         states.append(np.asarray(x))
     return np.array(states), np.array(commands).reshape(-1, 2)
 
@@ -86,34 +87,17 @@ def test_nothing_is_chosen_when_no_push_gains() -> None:
     assert not found and not bool(plan.active)
 
 
-#: run in a fresh interpreter without the suite's shared compile cache: in the full suite (two workers sharing
-#: it) XLA's executable serialization crashed when this comparison's programs were written to it
-_IDENTITY = """
-import numpy as np
-from dexpush import Shape
-from dexpush.control.controller import PushingController
-from dexpush.control.mppi import MPPISettings
-from dexpush.control.policy import ControllerSettings
-from dexpush.control.push_plan import PushPlanSettings
-from dexpush.model.cgvmm import LAMBDA_TRUE
-from dexpush.problem.problem import Problem
-problem = Problem(Shape.rectangle(), (0.3, 0.1, 0.5))
-runs = []
-for on in (False, True):
-    ctrl = PushingController(problem, params=LAMBDA_TRUE, seed=3, settings=ControllerSettings(
-        mppi=MPPISettings(num_samples=64), push_plan=PushPlanSettings(enabled=on)))
-    runs.append(np.array([ctrl.command((0.0, 0.0, 0.0), (-0.13, 0.0)) for _ in range(5)]))
-    assert ctrl.push_plans == (0 if on else None), ctrl.push_plans
-np.testing.assert_array_equal(runs[0], runs[1])
-assert np.abs(runs[0]).max() > 0
-"""
-
-
 def test_until_a_stall_the_controller_commands_what_it_did_without_the_plan() -> None:
-    env = {k: v for k, v in os.environ.items() if not k.startswith("JAX_COMPILATION_CACHE")}
-    done = subprocess.run([sys.executable, "-c", _IDENTITY], env={**env, "DEXPUSH_NO_CACHE": "1"},
-                          capture_output=True, text=True, timeout=600)
-    assert done.returncode == 0, done.stderr[-2000:]
+    problem = Problem(RECT, (0.3, 0.1, 0.5))
+    pose, pusher = (0.0, 0.0, 0.0), (-0.13, 0.0)
+    runs = []
+    for pp in (PushPlanSettings(enabled=False), PP):
+        ctrl = PushingController(problem, params=LAMBDA_TRUE, seed=3,
+                                 settings=ControllerSettings(mppi=MPPISettings(num_samples=64), push_plan=pp))
+        runs.append(np.array([ctrl.command(pose, pusher) for _ in range(5)]))
+        assert ctrl.push_plans == (0 if pp.enabled else None)
+    np.testing.assert_array_equal(runs[0], runs[1])
+    assert np.abs(runs[0]).max() > 0
 
 
 @pytest.mark.parametrize("kwargs, message", [
