@@ -29,7 +29,7 @@ import numpy as np
 
 from dexpush.model.cgvmm import Contour
 
-__all__ = ["contact_proposals", "pusher_in_body", "walk_and_push", "walk_curve"]
+__all__ = ["contact_proposals", "inward_normal", "pusher_in_body", "walk_and_push", "walk_curve"]
 
 #: points along each walk (the curve between them is taken as straight)
 WALK_POINTS = 48
@@ -61,13 +61,17 @@ def walk_curve(x: jnp.ndarray, contour: Contour, targets: jnp.ndarray, turns: jn
     walk = jnp.stack([rho * jnp.cos(phi), rho * jnp.sin(phi)], -1)                   # (J, M, 2)
     seg = jnp.linalg.norm(jnp.diff(walk, axis=1), axis=-1)                            # (J, M−1)
     arc = jnp.concatenate([jnp.zeros((count, 1), dtype), jnp.cumsum(seg, axis=1)], 1)  # (J, M)
-    # the inward normal at the target: −(outward normal) of p(φ) = R(φ)·(cos φ, sin φ)
+    return walk, arc, inward_normal(contour, targets)
+
+
+def inward_normal(contour: Contour, targets: jnp.ndarray) -> jnp.ndarray:
+    """The contour's inward unit normal (J, 2) in {B} at the azimuths ``targets`` (J,): −(outward normal) of
+    p(φ) = R(φ)·(cos φ, sin φ), the contour counter-clockwise. Pure and jit-able."""
     Rt, dRt = contour.lookup(targets)
     tx = dRt * jnp.cos(targets) - Rt * jnp.sin(targets)
     ty = dRt * jnp.sin(targets) + Rt * jnp.cos(targets)
     norm = jnp.hypot(tx, ty)
-    inward = jnp.stack([-ty / norm, tx / norm], -1)                                  # (J, 2), CCW contour
-    return walk, arc, inward
+    return jnp.stack([-ty / norm, tx / norm], -1)
 
 
 def walk_and_push(x: jnp.ndarray, contour: Contour, durations: jnp.ndarray, targets: jnp.ndarray,

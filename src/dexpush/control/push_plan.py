@@ -36,7 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive
-from dexpush.control.proposals import pusher_in_body, walk_and_push, walk_curve
+from dexpush.control.proposals import inward_normal, pusher_in_body, walk_and_push, walk_curve
 from dexpush.model.cgvmm import Contour, contact_gap, integrate
 from dexpush.problem.cost import goal_distance_sq, obstacle_cost
 from dexpush.problem.scene import Scene
@@ -212,8 +212,8 @@ def follow_push(plan: PushPlan, x: jnp.ndarray, contour: Contour, scene: Scene, 
     ahead = jnp.where(ahead > 2 * jnp.pi - 0.2, ahead - 2 * jnp.pi, ahead)
     arrived = (jnp.abs(ahead) < AT_TARGET_RAD) & (contact_gap(contour, x) < settings.clearance_m + AT_TARGET_M)
     start_push = plan.active & ~plan.pushing & arrived
-    _, _, inward = walk_curve(x, contour, plan.target[None], jnp.zeros(1, dtype), settings.clearance_m)
-    n_w = jnp.stack([c * inward[0, 0] - s * inward[0, 1], s * inward[0, 0] + c * inward[0, 1]])
+    inward = inward_normal(contour, plan.target[None])[0]
+    n_w = jnp.stack([c * inward[0] - s * inward[1], s * inward[0] + c * inward[1]])
     direction = jnp.where(start_push, n_w, plan.direction)
     pushing = plan.pushing | start_push
     walk_u = walk_and_push(x, contour, jnp.full((2,), period, dtype), plan.target[None],
