@@ -212,7 +212,8 @@ def _push_plan(state: ControllerState, x: jnp.ndarray, u: jnp.ndarray, stalled: 
     """After a stall restart, search a push (:func:`dexpush.control.push_plan.search_push`) and, while one is
     being carried out, command it instead of MPPI's ``u`` (:func:`dexpush.control.push_plan.follow_push`); the
     stall clock stands still meanwhile. Under ``vmap`` a per-member condition would be a select that searches
-    every period; with ``batch_axis`` the condition is whether any member needs a search."""
+    (and follows) every period; with ``batch_axis`` the condition is whether any member needs a search (or
+    follows a plan)."""
     pp, mp, w = settings.push_plan, settings.mppi, settings.weights
     args = (contour, scene, w, state.params, state.mu, pp, mp.v_clip)
     need = stalled & ~state.push.active
@@ -225,7 +226,17 @@ def _push_plan(state: ControllerState, x: jnp.ndarray, u: jnp.ndarray, stalled: 
     fresh = jax.lax.cond(run, search, push_plan_init)
     plan = jax.tree.map(lambda a, b: jnp.where(fresh.active, a, b), fresh, state.push)
     plan = plan._replace(started=state.push.started + fresh.active.astype(jnp.int32))
-    plan, u_plan, use = follow_push(plan, x, *args, mp.control_period)
+
+    def follow() -> tuple[PushPlan, jnp.ndarray, jnp.ndarray]:
+        return follow_push(plan, x, *args, mp.control_period)
+
+    def idle() -> tuple[PushPlan, jnp.ndarray, jnp.ndarray]:   # what follow_push gives for an inactive plan
+        return (plan._replace(active=jnp.bool_(False), pushing=jnp.bool_(False),
+                              time_left=plan.time_left - jnp.float32(mp.control_period)),
+                jnp.zeros(2, jnp.float32), jnp.bool_(False))
+
+    following = plan.active if batch_axis is None else jax.lax.psum(plan.active.astype(jnp.int32), batch_axis) > 0
+    plan, u_plan, use = jax.lax.cond(following, follow, idle)
     u = jnp.where(use, jnp.clip(u_plan, -mp.v_clip, mp.v_clip), u)
     return state._replace(push=plan, idle=jnp.where(use, 0.0, state.idle)), u
 
