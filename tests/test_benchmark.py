@@ -82,6 +82,26 @@ def test_a_folder_refuses_runs_with_other_settings(tmp_path: Path) -> None:
                                                              prediction_margin=PredictionMarginSettings(gain=0.0)))
 
 
+def test_a_folder_from_before_the_spread_cap_guidance_and_push_plan_reads_them_as_off(tmp_path: Path) -> None:
+    """A settings.json written before these options existed (the physics table of 2026-12-02 lacks them): their
+    records were made without them, so a run with today's defaults (all three on) is refused, not mixed in."""
+    from dexpush.experiments.results_folder import run_settings, saved_settings
+
+    wanted = run_settings("model", None, None, 2, 2)
+    controller = json.loads(json.dumps(wanted["controller"]))
+    del controller["mppi"]["spread_cap"], controller["push_plan"]
+    for key in ("guidance", "guidance_goal_heading"):
+        del controller["weights"][key]
+    (tmp_path / "settings.json").write_text(json.dumps({"settings": {**wanted, "controller": controller}}))
+    read = saved_settings(tmp_path / "settings.json", wanted["controller"])["controller"]
+    assert read["mppi"]["spread_cap"] is None and read["push_plan"]["enabled"] is False
+    assert read["weights"]["guidance"] is False and read["weights"]["guidance_goal_heading"] is False
+    assert read["push_plan"]["targets"] == wanted["controller"]["push_plan"]["targets"]   # the rest at today's
+    with pytest.raises(ValueError, match=r"other settings \(controller.mppi.spread_cap: None there, 1000000.0 now"):
+        run_benchmark(tmp_path, ["I"], ["rect"], ["known"], ["mppi"], [0], max_steps=2, lanes=2, progress=False,
+                      figures=False)
+
+
 def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path: Path) -> None:
     assert main(["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi", "--seeds", "0",
                  "--max-steps", "2", "--lanes", "1", "--no-detour", "--stall-after", "off", "--temperature", "0.05",
