@@ -6,12 +6,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from dexpush import Shape
 from dexpush.control.controller import PushingController
 from dexpush.control.mppi import MPPISettings
 from dexpush.control.policy import ControllerSettings
-from dexpush.control.push_plan import PushPlanSettings, follow_push, search_push
+from dexpush.control.push_plan import PushPlanSettings, follow_push, idle_push, push_plan_init, search_push
 from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C, integrate
 from dexpush.problem.cost import plan_margin
 from dexpush.problem.problem import Problem
@@ -85,6 +87,27 @@ def test_nothing_is_chosen_when_no_push_gains() -> None:
     problem = Problem(RECT, (0.0, 0.0, 0.0))
     found, plan = _search(problem, np.array([0.004, 0.0, 0.0, -0.12, 0.0]))    # 4 mm from the goal
     assert not found and not bool(plan.active)
+
+
+@settings(max_examples=20, deadline=None)
+@given(x=st.tuples(st.floats(-0.3, 0.3), st.floats(-0.3, 0.3), st.floats(-3.1, 3.1), st.floats(0.08, 0.2),
+                   st.floats(-3.1, 3.1)),
+       target=st.floats(-3.1, 3.1), way=st.sampled_from([-1.0, 1.0]), left=st.floats(0.0, 0.2),
+       time_left=st.floats(-1.0, 10.0))
+def test_an_inactive_plan_is_followed_as_idle_push_says(x, target, way, left, time_left) -> None:
+    """The policy skips follow_push while no plan is active (a ``cond``): idle_push must give what it would."""
+    problem = Problem(RECT, (0.0, 0.0, 0.0))
+    bx, by = x[3] * np.cos(x[4]), x[3] * np.sin(x[4])          # the pusher 8–20 cm from the centroid
+    state = jnp.asarray([x[0], x[1], x[2], x[0] + bx, x[1] + by], jnp.float32)
+    plan = push_plan_init()._replace(target=jnp.float32(target), way=jnp.float32(way), left_m=jnp.float32(left),
+                                     time_left=jnp.float32(time_left), direction=jnp.asarray([0.6, 0.8], jnp.float32))
+    scene = plan_margin(state, problem.local_scene, problem.weights)
+    followed = jax.jit(follow_push, static_argnames=("weights", "settings", "speed", "period"))(
+        plan, state, problem.contour, scene, weights=problem.weights, params=LAM, mu=MU, settings=PP, speed=MP.v_clip,
+        period=MP.control_period)
+    idle = idle_push(plan, MP.control_period)
+    for a, b in zip(jax.tree.leaves(followed), jax.tree.leaves(idle), strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
 
 
 def test_until_a_stall_the_controller_commands_what_it_did_without_the_plan() -> None:

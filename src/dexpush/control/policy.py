@@ -24,7 +24,7 @@ from dexpush.common.se2 import wrap_angle
 from dexpush.control.estimator import EstimatorState, estimator_init, estimator_observe, rate_limited
 from dexpush.control.mppi import MPPIResult, mppi_iteration, shift_in_time, slot_durations
 from dexpush.control.proposals import contact_proposals
-from dexpush.control.push_plan import PushPlan, follow_push, push_plan_init, search_push
+from dexpush.control.push_plan import PushPlan, follow_push, idle_push, push_plan_init, search_push
 from dexpush.control.settings import ControllerSettings
 from dexpush.model.cgvmm import Contour, contact_gap, step
 from dexpush.problem.cost import goal_distance_sq, plan_margin, running_cost, terminal_cost
@@ -230,13 +230,8 @@ def _push_plan(state: ControllerState, x: jnp.ndarray, u: jnp.ndarray, stalled: 
     def follow() -> tuple[PushPlan, jnp.ndarray, jnp.ndarray]:
         return follow_push(plan, x, *args, mp.control_period)
 
-    def idle() -> tuple[PushPlan, jnp.ndarray, jnp.ndarray]:   # what follow_push gives for an inactive plan
-        return (plan._replace(active=jnp.bool_(False), pushing=jnp.bool_(False),
-                              time_left=plan.time_left - jnp.float32(mp.control_period)),
-                jnp.zeros(2, jnp.float32), jnp.bool_(False))
-
     following = plan.active if batch_axis is None else jax.lax.psum(plan.active.astype(jnp.int32), batch_axis) > 0
-    plan, u_plan, use = jax.lax.cond(following, follow, idle)
+    plan, u_plan, use = jax.lax.cond(following, follow, lambda: idle_push(plan, mp.control_period))
     u = jnp.where(use, jnp.clip(u_plan, -mp.v_clip, mp.v_clip), u)
     return state._replace(push=plan, idle=jnp.where(use, 0.0, state.idle)), u
 

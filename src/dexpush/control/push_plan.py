@@ -42,8 +42,8 @@ from dexpush.problem.cost import goal_distance_sq, obstacle_cost
 from dexpush.problem.scene import Scene
 from dexpush.problem.weights import CostWeights
 
-__all__ = ["PushCandidates", "PushPlan", "PushPlanSettings", "follow_push", "push_candidates", "push_plan_init",
-           "search_push"]
+__all__ = ["PushCandidates", "PushPlan", "PushPlanSettings", "follow_push", "idle_push", "push_candidates",
+           "push_plan_init", "search_push"]
 
 #: the walk is done when the pusher is within this turn (rad) of its target ...
 AT_TARGET_RAD = 0.05
@@ -230,3 +230,11 @@ def follow_push(plan: PushPlan, x: jnp.ndarray, contour: Contour, scene: Scene, 
     new = PushPlan(active, pushing & active, plan.target, plan.way, direction, left,
                    plan.time_left - period, plan.started, plan.margin, plan.pusher_margin)
     return new, jnp.where(use, u, 0.0), use
+
+
+def idle_push(plan: PushPlan, period: float) -> tuple[PushPlan, jnp.ndarray, jnp.ndarray]:
+    """What :func:`follow_push` gives for an inactive ``plan`` (which is never pushing), without its model step: for
+    a ``lax.cond`` that follows only while a plan is active. Pure and jit-able."""
+    off = jnp.bool_(False)
+    return (plan._replace(active=off, pushing=off, time_left=plan.time_left - jnp.float32(period)),
+            jnp.zeros(2, jnp.float32), off)
