@@ -10,7 +10,9 @@ its start), timed in alternating rounds:
 * with it, at a stall: every call is a stall restart that searches J = 16 contact points, both ways round,
   three push lengths (96 candidates: 32 walks checked against the obstacles, 48 pushes rolled through the
   C-GVMM). A robot's controller pays this once per stall; a batch of simulated lanes
-  (:mod:`dexpush.experiments.simulate`) pays it in every period where one of its lanes stalls.
+  (:mod:`dexpush.experiments.simulate`) pays it in every period where one of its lanes stalls;
+* with it, at a stall 1.3 cm from the goal: the endgame's search (``push_plan.endgame``: J = 48, both ways
+  round, three turns, six lengths: 96 walks, 864 pushes).
 
 Run on an idle machine.
 """
@@ -48,16 +50,21 @@ def main() -> None:
     on = ControllerSettings(mppi=MPPISettings(num_samples=args.samples), weights=problem.weights,
                             push_plan=PushPlanSettings(enabled=True))
     base = replace(on, push_plan=PushPlanSettings(enabled=False))
+    # 1.3 cm from the goal in its heading, the pusher 4 cm beyond the footprint's reach
+    th = float(problem.goal[2])
+    reach = shape.bounding_radius + shape.pusher_radius + 0.04
+    near = np.array([0.012, -0.005, th, 0.012 - reach * np.cos(th), -0.005 - reach * np.sin(th)], np.float32)
     calls = {}
-    for name, settings, stalled in (("without the push plan", base, False),
-                                    ("push plan, between stalls", on, False),
-                                    ("push plan, at a stall (the search)", on, True)):
+    for name, settings, stalled, at in (("without the push plan", base, False, x),
+                                        ("push plan, between stalls", on, False, x),
+                                        ("push plan, at a stall (the search)", on, True, x),
+                                        ("push plan, at a stall near the goal (the endgame's search)", on, True, near)):
         fn = jax.jit(partial(plan_step, contour=problem.contour, scene=problem.local_scene, settings=settings))
         state = policy_init(LAMBDA_TRUE, settings, 0)
         if stalled:     # the clock at its patience: each call restarts and searches
             state = state._replace(idle=jnp.float32(settings.stall.after_s), best=jnp.float32(0.0))
-        jax.block_until_ready(fn(state, x))
-        calls[name] = partial(fn, state, x)
+        jax.block_until_ready(fn(state, at))
+        calls[name] = partial(fn, state, at)
     med = median_ms_alternating(calls, args.repeats, args.rounds)
     print_ms_table(f"T clutter seed {seed}, K = {args.samples}, N_p = {base.mppi.horizon}", "controller step", med,
                    args)

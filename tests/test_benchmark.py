@@ -95,6 +95,7 @@ def test_a_folder_from_before_the_spread_cap_guidance_and_push_plan_reads_them_a
     (tmp_path / "settings.json").write_text(json.dumps({"settings": {**wanted, "controller": controller}}))
     read = saved_settings(tmp_path / "settings.json", wanted["controller"])["controller"]
     assert read["mppi"]["spread_cap"] is None and read["push_plan"]["enabled"] is False
+    assert read["push_plan"]["endgame"]["enabled"] is False
     assert read["weights"]["guidance"] is False and read["weights"]["guidance_goal_heading"] is False
     assert read["push_plan"]["targets"] == wanted["controller"]["push_plan"]["targets"]   # the rest at today's
     with pytest.raises(ValueError, match=r"other settings \(controller.mppi.spread_cap: None there, 1000000.0 now"):
@@ -106,19 +107,19 @@ def test_bench_turns_the_default_options_off_and_says_so_in_its_command(tmp_path
     assert main(["bench", "--tasks", "I", "--shapes", "rect", "--params", "known", "--methods", "mppi", "--seeds", "0",
                  "--max-steps", "2", "--lanes", "1", "--no-detour", "--stall-after", "off", "--temperature", "0.05",
                  "--endgame-temperature", "off", "--margin-cost", "off", "--mppi-update", "clipped",
-                 "--contact-proposals", "4", "--no-push-plan", "--prediction-margin", "0.25", "--stall-horizon", "1.5",
-                 "--samples", "64", "--no-figures", "--quiet",
+                 "--contact-proposals", "4", "--no-push-plan", "--no-endgame-push", "--prediction-margin", "0.25",
+                 "--stall-horizon", "1.5", "--samples", "64", "--no-figures", "--quiet",
                  "--out", str(tmp_path)]) == 0
     controller = json.loads((tmp_path / "settings.json").read_text())["settings"]["controller"]
     assert controller["weights"]["detour"] is False and controller["stall"]["after_s"] is None
     assert controller["mppi"]["temperature"] == 0.05 and controller["endgame"]["temperature"] is None
     assert controller["weights"]["C_margin"] is None
     assert controller["mppi"]["update"] == "clipped" and controller["proposals"]["count"] == 4
-    assert controller["push_plan"]["enabled"] is False
+    assert controller["push_plan"]["enabled"] is False and controller["push_plan"]["endgame"]["enabled"] is False
     assert controller["prediction_margin"]["gain"] == 0.25 and controller["stall"]["horizon_scale"] == 1.5
     assert controller["mppi"]["num_samples"] == 64
     command = ("--no-detour --stall-after off --temperature 0.05 --endgame-temperature off --margin-cost off "
-               "--contact-proposals 4 --no-push-plan --mppi-update clipped --prediction-margin 0.25 "
+               "--contact-proposals 4 --no-push-plan --no-endgame-push --mppi-update clipped --prediction-margin 0.25 "
                "--stall-horizon 1.5 --samples 64")
     assert command in (tmp_path / "benchmark.md").read_text()
     for bad in (["--stall-after", "0"], ["--temperature", "0"], ["--temperature", "nan"],

@@ -12,8 +12,17 @@ from hypothesis import strategies as st
 from dexpush import Shape
 from dexpush.control.controller import PushingController
 from dexpush.control.mppi import MPPISettings
-from dexpush.control.policy import ControllerSettings
-from dexpush.control.push_plan import PushPlanSettings, follow_push, idle_push, push_plan_init, search_push
+from dexpush.control.policy import ControllerSettings, plan_step, policy_init, progress_units
+from dexpush.control.push_plan import (
+    EndgamePushSettings,
+    PushPlanSettings,
+    follow_push,
+    idle_push,
+    progress_error,
+    push_plan_init,
+    search_endgame_push,
+    search_push,
+)
 from dexpush.model.cgvmm import LAMBDA_TRUE, MU_C, integrate
 from dexpush.problem.cost import plan_margin
 from dexpush.problem.problem import Problem
@@ -31,6 +40,15 @@ def _search(problem: Problem, x: np.ndarray) -> tuple[bool, object]:
     scene = plan_margin(x, problem.local_scene, problem.weights)
     found, plan = jax.jit(search_push, static_argnames=("weights", "settings", "speed"))(
         x, problem.contour, scene, weights=problem.weights, params=LAM, mu=MU, settings=PP, speed=MP.v_clip)
+    return bool(found), plan
+
+
+def _search_endgame(problem: Problem, x: np.ndarray) -> tuple[bool, object]:
+    x = jnp.asarray(x, jnp.float32)
+    scene = plan_margin(x, problem.local_scene, problem.weights)
+    found, plan = jax.jit(search_endgame_push, static_argnames=("weights", "settings", "speed", "units"))(
+        x, problem.contour, scene, weights=problem.weights, params=LAM, mu=MU, settings=PP, speed=MP.v_clip,
+        units=progress_units(ControllerSettings()))
     return bool(found), plan
 
 
@@ -89,6 +107,46 @@ def test_nothing_is_chosen_when_no_push_gains() -> None:
     assert not found and not bool(plan.active)
 
 
+@pytest.mark.parametrize("shape", [RECT, Shape.tee()], ids=["box", "tee"])
+@pytest.mark.parametrize("offset", [(-0.012, 0.004, 0.0), (0.0, -0.014, 0.02), (0.01, 0.01, -0.03)])
+def test_near_the_goal_the_endgame_push_brings_the_object_within_the_success_tolerances(shape, offset) -> None:
+    """1–1.5 cm and up to 2° from the goal, the pusher 4 cm off the object: one push chosen by E (the success test's
+    terms) and carried out on the model plant ends within 8 mm and 3°, without a touch."""
+    problem = Problem(shape, (0.0, 0.0, 0.0))
+    x = np.array([*offset, 0.0, 0.0])
+    below = min(float(poly[:, 1].min()) for poly in shape.polygons)
+    x[3:] = (x[0], x[1] + below - shape.pusher_radius - 0.04)          # 4 cm below it
+    found, plan = _search_endgame(problem, x)
+    assert found and float(plan.clearance) == pytest.approx(PP.endgame.clearance_m)
+    assert abs(float(plan.angle)) < np.arctan(MU_C)
+    states, commands = _carry_out(problem, x, plan)
+    assert len(commands) > 5 and np.all(np.abs(commands) <= MP.v_clip * (1 + 1e-5))
+    end = states[-1]
+    assert bool(problem.success(end[:3])), (np.hypot(*end[:2]) * 1000, np.degrees(end[2]))
+    units = progress_units(ControllerSettings())
+    assert float(progress_error(jnp.asarray(end, jnp.float32), problem.local_scene, *units)) < \
+        float(progress_error(jnp.asarray(x, jnp.float32), problem.local_scene, *units)) - PP.endgame.min_gain
+
+
+def test_a_stall_near_the_goal_searches_the_endgame_push_and_far_from_it_the_far_one() -> None:
+    """The policy's choice: within ``endgame.distance_m`` the plan is the endgame's (its closer walk), beyond it the
+    far search's; a stall near the goal does not stretch the horizon."""
+    s = ControllerSettings(mppi=MPPISettings(num_samples=64))
+    problem = Problem(RECT, (0.0, 0.0, 0.0))
+    plans = {}
+    for name, xb in (("near", -0.014), ("far", -0.3)):
+        x = jnp.asarray([xb, 0.0, 0.0, xb, 0.12], jnp.float32)         # the pusher above the box, out of contact
+        state = policy_init(LAMBDA_TRUE, s, 0)
+        state = state._replace(best=jnp.float32(0.0), idle=jnp.float32(s.stall.after_s))
+        state, _, _ = jax.jit(plan_step, static_argnames=("settings",))(
+            state, x, contour=problem.contour, scene=problem.local_scene, settings=s)
+        assert int(state.stalls) == 1 and bool(state.push.active)
+        plans[name] = state
+    assert float(plans["near"].push.clearance) == pytest.approx(s.push_plan.endgame.clearance_m)
+    assert float(plans["far"].push.clearance) == pytest.approx(s.push_plan.clearance_m)
+    assert float(plans["near"].stretch) == 1.0 and float(plans["far"].stretch) == s.stall.horizon_scale
+
+
 @settings(max_examples=20, deadline=None)
 @given(x=st.tuples(st.floats(-0.3, 0.3), st.floats(-0.3, 0.3), st.floats(-3.1, 3.1), st.floats(0.08, 0.2),
                    st.floats(-3.1, 3.1)),
@@ -129,7 +187,22 @@ def test_until_a_stall_the_controller_commands_what_it_did_without_the_plan() ->
     ({"lengths_m": (0.05, -0.01)}, "push_plan.lengths_m must be a non-empty list"),
     ({"enabled": "yes"}, "push_plan.enabled must be true or false"),
     ({"tolerance": 0.0}, "push_plan.tolerance"),
+    ({"endgame": {"targets": 48}}, "push_plan.endgame must be an EndgamePushSettings"),
 ])
 def test_bad_settings_are_refused_in_one_line(kwargs: dict, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         PushPlanSettings(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"angles_rad": (0.0, 0.4)}, r"push_plan.endgame.angles_rad must be .* friction cone"),
+    ({"angles_rad": ()}, "push_plan.endgame.angles_rad must be a non-empty list"),
+    ({"lengths_m": (0.01, 0.0)}, "push_plan.endgame.lengths_m must be a non-empty list of positive"),
+    ({"targets": 1}, "push_plan.endgame.targets must be a whole number >= 2"),
+    ({"clearance_m": -0.001}, "push_plan.endgame.clearance_m"),
+    ({"min_gain": -1.0}, "push_plan.endgame.min_gain"),
+    ({"enabled": 1}, "push_plan.endgame.enabled must be true or false"),
+])
+def test_bad_endgame_settings_are_refused_in_one_line(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        EndgamePushSettings(**kwargs)

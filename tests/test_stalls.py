@@ -71,20 +71,21 @@ def test_a_slow_turn_in_place_is_progress() -> None:
     assert any(_watch(s, [0.6] * len(toward), list(toward[::-1])))
 
 
-def test_near_means_near_in_both_position_and_heading() -> None:
+def test_near_means_within_the_success_tolerances_in_both_position_and_heading() -> None:
     s = WATCH
     n = round(s.stall.after_s / s.mppi.control_period)
-    assert not any(_watch(s, [0.59] * (2 * n), [np.radians(4.0)] * (2 * n)))   # 1 cm and 4°: near the goal
-    assert any(_watch(s, [0.59] * (2 * n), [np.radians(20.0)] * (2 * n)))      # 1 cm but 20° off: not near
+    assert not any(_watch(s, [0.595] * (2 * n), [np.radians(2.0)] * (2 * n)))  # 5 mm and 2°: done
+    assert any(_watch(s, [0.595] * (2 * n), [np.radians(20.0)] * (2 * n)))     # 5 mm but 20° off: not near
+    assert any(_watch(s, [0.588] * (2 * n), [np.radians(1.0)] * (2 * n)))      # 12 mm: short of it, a stall
 
 
 def test_the_stall_clock_rests_in_contact_and_near_the_goal() -> None:
     s = WATCH
     n = round(s.stall.after_s / s.mppi.control_period)
     state, watch = policy_init(LAMBDA_TRUE, s, 0), _compiled_watch(s)
-    for x in [_state_at(0.0, pusher_gap=0.0)] * (2 * n) + [_state_at(0.59)] * (2 * n):
+    for x in [_state_at(0.0, pusher_gap=0.0)] * (2 * n) + [_state_at(0.595)] * (2 * n):
         state, stalled = watch(state, x)
-        assert not bool(stalled)     # touching the object, then 1 cm from the goal: never a stall
+        assert not bool(stalled)     # touching the object, then 5 mm from the goal: never a stall
 
 
 @given(st.lists(st.floats(-0.3, 0.5), min_size=1, max_size=300))
@@ -113,10 +114,14 @@ def test_a_stall_restarts_the_planner_from_a_zero_warm_start_with_a_longer_horiz
     closer, _ = watch_progress(stalled, _state_at(0.1), contour=CONTOUR, scene=SCENE, settings=s)
     assert float(closer.stretch) == 1.0 and int(closer.stalls) == 1
     assert int(stalled.streak) == 1 and int(closer.streak) == 0     # progress ends the backoff
-    # near the goal the horizon is the paper's too, progress or not (the endgame needs the fine slots)
+    # within endgame.distance_m the horizon is the paper's too, progress or not (the endgame needs the fine
+    # slots), and a stall there does not stretch it
     there = stalled._replace(best=jnp.float32(0.0))
     there, _ = watch_progress(there, _state_at(0.59), contour=CONTOUR, scene=SCENE, settings=s)
     assert float(there.stretch) == 1.0 and int(there.streak) == 1
+    close = state._replace(best=jnp.float32(0.0))
+    close, again = watch_progress(close, _state_at(0.6 - 0.03), contour=CONTOUR, scene=SCENE, settings=s)
+    assert bool(again) and float(close.stretch) == 1.0     # a stall 3 cm from the goal
 
 
 def test_stretched_slots_keep_the_first_one_and_scale_the_rest() -> None:

@@ -27,7 +27,7 @@ from dexpush.world.sensing import MAX_CAMERA_HZ, SensorSettings
 
 __all__ = ["add_camera_flags", "add_planner_flags", "camera_overrides", "planner_overrides"]
 
-#: planner flag → (its argparse dest, the controller key it sets)
+#: planner flag → (its argparse dest, the path of the controller key it sets)
 _PLANNER = {
     "--detour": ("detour", ("weights", "detour")),
     "--guidance": ("guidance", ("weights", "guidance")),
@@ -43,6 +43,7 @@ _PLANNER = {
     "--obstacle-margin": ("obstacle_margin", ("weights", "obstacle_margin_m")),
     "--contact-proposals": ("contact_proposals", ("proposals", "count")),
     "--push-plan": ("push_plan", ("push_plan", "enabled")),
+    "--endgame-push": ("endgame_push", ("push_plan", "endgame", "enabled")),
     "--mppi-update": ("mppi_update", ("mppi", "update")),
     "--prediction-margin": ("prediction_margin", ("prediction_margin", "gain")),
     "--stall-horizon": ("stall_horizon", ("stall", "horizon_scale")),
@@ -107,6 +108,10 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
                    help="after a stall, choose a push (where to stand, which way round, how far) past MPPI's "
                         "horizon and carry it out (default), or restart MPPI alone (--no-push-plan; "
                         "push_plan.enabled; docs/workspaces.md#a-push-plan-after-a-stall-2026-12-07)")
+    g.add_argument("--endgame-push", action=argparse.BooleanOptionalAction, default=None,
+                   help="a stall within 4 cm of the goal searches finer, shorter pushes scored in the success "
+                        "test's terms (default), or the push plan's search as far from the goal (--no-endgame-push; "
+                        "push_plan.endgame.enabled; docs/workspaces.md#the-endgame-push-2026-12-07)")
     g.add_argument("--mppi-update", choices=("sampled", "clipped"), default=None,
                    help="MPPI's update: average the sampled inputs and clip the average (sampled), or "
                         "average the clipped samples (clipped) (mppi.update; docs/controller.md#the-update; "
@@ -131,11 +136,14 @@ def planner_overrides(args: argparse.Namespace) -> tuple[dict, str]:
     (`` --no-detour --stall-after off`` …) for a results folder's command line."""
     over: dict[str, Any] = {}
     text = ""
-    for flag, (dest, (group, key)) in _PLANNER.items():
+    for flag, (dest, path) in _PLANNER.items():
         value = getattr(args, dest, None)
         if value is None:
             continue
-        over = merge(over, {group: {key: value}})
+        nested: Any = value
+        for key in reversed(path):
+            nested = {key: nested}
+        over = merge(over, nested)
         text += _text(flag, value)
     return ({"controller": over} if over else {}), text
 

@@ -20,11 +20,19 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.common.se2 import wrap_angle
 from dexpush.control.estimator import EstimatorState, estimator_init, estimator_observe, rate_limited
 from dexpush.control.mppi import MPPIResult, mppi_iteration, shift_in_time, slot_durations
 from dexpush.control.proposals import contact_proposals
-from dexpush.control.push_plan import PushPlan, follow_push, idle_push, push_plan_init, search_push
+from dexpush.control.push_plan import (
+    PushPlan,
+    follow_push,
+    goal_errors,
+    idle_push,
+    progress_error,
+    push_plan_init,
+    search_endgame_push,
+    search_push,
+)
 from dexpush.control.settings import ControllerSettings
 from dexpush.model.cgvmm import Contour, contact_gap, step
 from dexpush.problem.cost import goal_distance_sq, plan_margin, running_cost, terminal_cost
@@ -124,16 +132,16 @@ def watch_progress(state: ControllerState, x: jnp.ndarray, *, contour: Contour, 
     warm start with its horizon stretched ``stall.horizon_scale`` times
     (:func:`dexpush.control.mppi.slot_durations`: a push that needs a long walk round the object
     first comes into view), and the clock restarts. The horizon is the paper's again at the
-    next progress, or as soon as the object is near the goal (the endgame needs the fine
-    slots). Pure and jit-able.
+    next progress, and is not stretched within ``endgame.distance_m`` of the goal (the endgame
+    needs the fine slots; a stall there searches the endgame's push, ``push_plan.endgame``).
+    E is :func:`dexpush.control.push_plan.progress_error`. Pure and jit-able.
     """
     if settings.stall.after_s is None:
         return state, jnp.bool_(False)
     T = settings.mppi.control_period
-    e_p = jnp.sqrt(goal_distance_sq(x, scene, 0.0))
-    e_th = jnp.abs(wrap_angle(x[2] - scene.goal[2], jnp)) * scene.heading_weight     # (0: a region of any heading)
-    error = jnp.maximum(e_p / settings.stall.progress_m, e_th / np.radians(settings.stall.progress_deg))
+    error = progress_error(x, scene, *progress_units(settings))
     improved = error <= state.best - 1.0
+    e_p, e_th = goal_errors(x, scene)
     near = (e_p <= settings.stall.min_distance_m) & (e_th <= np.radians(settings.stall.min_heading_deg))
     away = (contact_gap(contour, x) > settings.stall.contact_gap_m) & ~near
     idle = jnp.where(improved, 0.0, state.idle + jnp.where(away, T, 0.0))
@@ -141,10 +149,16 @@ def watch_progress(state: ControllerState, x: jnp.ndarray, *, contour: Contour, 
     patience = settings.stall.after_s * jnp.float32(settings.stall.backoff) ** streak.astype(jnp.float32)
     stalled = idle >= patience - 0.5 * T    # (float32 sums of T)
     scale = jnp.float32(settings.stall.horizon_scale)
-    stretch = jnp.where(stalled, scale, jnp.where(improved | near, 1.0, state.stretch))
+    close = e_p <= settings.endgame.distance_m     # the endgame's fine slots: no stretch there
+    stretch = jnp.where(stalled & ~close, scale, jnp.where(improved | near | close, 1.0, state.stretch))
     restarts = stalled.astype(jnp.int32)
     return state._replace(best=jnp.where(improved, error, state.best), idle=jnp.where(stalled, 0.0, idle),
                           stalls=state.stalls + restarts, streak=streak + restarts, stretch=stretch), stalled
+
+
+def progress_units(settings: ControllerSettings) -> tuple[float, float]:
+    """(u_p m, u_θ rad): the stall watch's units of progress (``stall.progress_m``, ``stall.progress_deg``)."""
+    return settings.stall.progress_m, float(np.radians(settings.stall.progress_deg))
 
 
 def _temperature(x: jnp.ndarray, scene: Scene, settings: ControllerSettings) -> jnp.ndarray | None:
@@ -219,7 +233,12 @@ def _push_plan(state: ControllerState, x: jnp.ndarray, u: jnp.ndarray, stalled: 
     need = stalled & ~state.push.active
 
     def search() -> PushPlan:
-        found, plan = search_push(x, *args)
+        if pp.endgame.enabled:      # within endgame.distance_m the endgame's search
+            close = goal_distance_sq(x, scene, 0.0) <= settings.endgame.distance_m ** 2
+            found, plan = jax.lax.cond(close, lambda: search_endgame_push(x, *args, progress_units(settings)),
+                                       lambda: search_push(x, *args))
+        else:
+            found, plan = search_push(x, *args)
         return jax.tree.map(lambda a, b: jnp.where(need & found, a, b), plan, push_plan_init())
 
     run = need if batch_axis is None else jax.lax.psum(need.astype(jnp.int32), batch_axis) > 0

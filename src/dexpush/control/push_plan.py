@@ -24,11 +24,25 @@ through the model against the margin the plan was chosen with (the search's test
 used), and the plan is given up, MPPI's command taking over, where that period would go further in, or
 when the plan has run 1.5 times its length plus a second. MPPI plans on beside it every period and takes
 over when the push is done.
+
+Near the goal (a stall within ``endgame.distance_m``) the gain left is a centimetre or two, the push
+must not turn the object it nearly has, and the T or the ellipse has few contact points that push it
+straight: :func:`search_endgame_push` weighs finer targets (J = 48), the push turned by α_a from the
+inward normal (within the friction cone, |α| < atan μ_c), short lengths and a closer walk
+(:class:`EndgamePushSettings`; the lengths of one target and turn share one rollout, a slot from each length's
+end to the next), and scores each by the stall watch's own error
+(:func:`dexpush.control.policy.watch_progress`), in the success test's terms:
+
+    E(x) = max(e_p / u_p, e_θ / u_θ),   e_p = √d²(q_sb, q_g) with c = 0,  e_θ = |θ − θ_g|
+
+(u_p, u_θ: ``stall.progress_m``, ``stall.progress_deg``), chosen if E(x_end) is at least ``min_gain`` below
+E(x) now. One push seldom ends the trial; the next stall searches again from where it ended
+(docs/workspaces.md#the-endgame-push-2026-12-07).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import jax
@@ -36,14 +50,16 @@ import jax.numpy as jnp
 import numpy as np
 
 from dexpush.common.checks import check_nonnegative, check_positive
+from dexpush.common.se2 import wrap_angle
 from dexpush.control.proposals import inward_normal, pusher_in_body, walk_and_push, walk_curve
-from dexpush.model.cgvmm import Contour, contact_gap, integrate
+from dexpush.model.cgvmm import MU_C, Contour, contact_gap, integrate
 from dexpush.problem.cost import goal_distance_sq, obstacle_cost
 from dexpush.problem.scene import Scene
 from dexpush.problem.weights import CostWeights
 
-__all__ = ["PushCandidates", "PushPlan", "PushPlanSettings", "follow_push", "idle_push", "push_candidates",
-           "push_plan_init", "search_push"]
+__all__ = ["EndgamePushSettings", "PushCandidates", "PushPlan", "PushPlanSettings", "endgame_candidates",
+           "follow_push", "goal_errors", "idle_push", "progress_error", "push_candidates", "push_plan_init",
+           "search_endgame_push", "search_push"]
 
 #: the walk is done when the pusher is within this turn (rad) of its target ...
 AT_TARGET_RAD = 0.05
@@ -51,6 +67,50 @@ AT_TARGET_RAD = 0.05
 AT_TARGET_M = 0.005
 #: substeps of the model per push slot
 PUSH_SUBSTEPS = 4
+
+
+def _lengths(where: str, lengths: object) -> tuple[float, ...]:
+    if not isinstance(lengths, tuple | list) or not lengths or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) and 0 < v < float("inf") for v in lengths):
+        raise ValueError(f"{where} must be a non-empty list of positive lengths (m), got {lengths!r}")
+    return tuple(float(v) for v in lengths)
+
+
+def _check_whole(where: str, v: object, low: int) -> None:
+    if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < low:
+        raise ValueError(f"{where} must be a whole number >= {low}, got {v!r}")
+
+
+@dataclass(frozen=True)
+class EndgamePushSettings:
+    """The push searched after a stall within ``endgame.distance_m`` of the goal (:func:`search_endgame_push`):
+    finer targets, the push turned within the friction cone, short lengths and a closer walk, scored by the stall
+    watch's error E; ``enabled`` False searches there as far from the goal."""
+
+    enabled: bool = True
+    targets: int = 48                  #: contact azimuths, evenly spaced round the object
+    #: the push's turn α from the inward normal (rad), each within the friction cone atan μ_c (0.29 at μ_c = 0.3)
+    angles_rad: tuple[float, ...] = (-0.2, 0.0, 0.2)
+    lengths_m: tuple[float, ...] = (0.003, 0.006, 0.01, 0.015, 0.02, 0.03)   #: push lengths (m), after the clearance
+    clearance_m: float = 0.006         #: the walk's distance from the inflated contour (m)
+    #: E (in the stall watch's units: ``stall.progress_m``, ``stall.progress_deg``) must fall by this much
+    min_gain: float = 0.5
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.enabled, bool | np.bool_):
+            raise ValueError(f"push_plan.endgame.enabled must be true or false, got {self.enabled!r}")
+        _check_whole("push_plan.endgame.targets", self.targets, 2)
+        angles = self.angles_rad
+        cone = float(np.arctan(MU_C))
+        if not isinstance(angles, tuple | list) or not angles or not all(
+                isinstance(v, int | float) and not isinstance(v, bool) and abs(v) < cone for v in angles):
+            raise ValueError(f"push_plan.endgame.angles_rad must be a non-empty list of turns within the friction "
+                             f"cone (|α| < atan μ_c = {cone:.3f} rad), got {angles!r}")
+        object.__setattr__(self, "angles_rad", tuple(float(v) for v in angles))
+        # ascending: the lengths share one rollout (:func:`endgame_candidates`)
+        object.__setattr__(self, "lengths_m", tuple(sorted(_lengths("push_plan.endgame.lengths_m", self.lengths_m))))
+        check_positive("push_plan.endgame.clearance_m", self.clearance_m, "m")
+        check_nonnegative("push_plan.endgame.min_gain", self.min_gain)
 
 
 @dataclass(frozen=True)
@@ -68,19 +128,16 @@ class PushPlanSettings:
     tolerance: float = 0.25
     travel_weight: float = 0.05        #: metres of goal distance one metre of the pusher's travel costs
     min_gain_m: float = 0.01           #: the push must bring the object this much nearer the goal (m, along V)
+    endgame: EndgamePushSettings = field(default_factory=EndgamePushSettings)   #: the search near the goal
 
     def __post_init__(self) -> None:
         if not isinstance(self.enabled, bool | np.bool_):
             raise ValueError(f"push_plan.enabled must be true or false, got {self.enabled!r}")
         for name, low in (("targets", 2), ("push_slots", 1)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < low:
-                raise ValueError(f"push_plan.{name} must be a whole number >= {low}, got {v!r}")
-        lengths = self.lengths_m
-        if not isinstance(lengths, tuple | list) or not lengths or not all(
-                isinstance(v, int | float) and not isinstance(v, bool) and 0 < v < float("inf") for v in lengths):
-            raise ValueError(f"push_plan.lengths_m must be a non-empty list of positive lengths (m), got {lengths!r}")
-        object.__setattr__(self, "lengths_m", tuple(float(v) for v in lengths))
+            _check_whole(f"push_plan.{name}", getattr(self, name), low)
+        object.__setattr__(self, "lengths_m", _lengths("push_plan.lengths_m", self.lengths_m))
+        if not isinstance(self.endgame, EndgamePushSettings):
+            raise ValueError(f"push_plan.endgame must be an EndgamePushSettings, got {self.endgame!r}")
         check_positive("push_plan.clearance_m", self.clearance_m, "m")
         check_positive("push_plan.tolerance", self.tolerance)
         check_nonnegative("push_plan.travel_weight", self.travel_weight)
@@ -100,13 +157,30 @@ class PushPlan(NamedTuple):
     started: jnp.ndarray     #: int32: plans started since the controller's reset
     margin: jnp.ndarray      #: the plan's obstacle margin when it was chosen (m; ``Scene.margin``)
     pusher_margin: jnp.ndarray   #: ... and the pusher's from bounds of its own (``Scene.pusher_margin``)
+    angle: jnp.ndarray       #: α, the push's turn from the target's inward normal (rad)
+    clearance: jnp.ndarray   #: the walk's distance from the inflated contour (m)
 
 
 def push_plan_init() -> PushPlan:
     """No plan."""
     f = jnp.float32(0.0)
     return PushPlan(jnp.bool_(False), jnp.bool_(False), f, jnp.float32(1.0), jnp.zeros(2, jnp.float32), f, f,
-                    jnp.int32(0), f, f)
+                    jnp.int32(0), f, f, f, f)
+
+
+def goal_errors(x: tuple | jnp.ndarray, scene: Scene) -> tuple[jnp.ndarray, jnp.ndarray]:
+    """(e_p, e_θ) for states ``x`` (leading axis 5): the position error round the obstacles
+    (:func:`dexpush.problem.cost.goal_distance_sq` with c = 0, m) and the heading error (rad; 0 for a goal region
+    without a heading). Pure and jit-able."""
+    e_p = jnp.sqrt(goal_distance_sq(x, scene, 0.0))
+    return e_p, jnp.abs(wrap_angle(x[2] - scene.goal[2], jnp)) * scene.heading_weight
+
+
+def progress_error(x: tuple | jnp.ndarray, scene: Scene, unit_m: float, unit_rad: float) -> jnp.ndarray:
+    """E = max(e_p / u_p, e_θ / u_θ) of the module docstring for states ``x`` (leading axis 5), with
+    :func:`goal_errors`. Pure and jit-able."""
+    e_p, e_th = goal_errors(x, scene)
+    return jnp.maximum(e_p / unit_m, e_th / unit_rad)
 
 
 def _blocked(states: tuple, scene: Scene, weights: CostWeights, tolerance: float) -> jnp.ndarray:
@@ -120,66 +194,132 @@ def _distance(x: tuple | jnp.ndarray, scene: Scene, weights: CostWeights) -> jnp
 
 
 class PushCandidates(NamedTuple):
-    """Every push :func:`search_push` weighs (J targets, 2 ways round, L lengths)."""
+    """Every push a search weighs (J targets, 2 ways round, A turns, L lengths)."""
 
     targets: jnp.ndarray      #: (J,) contact azimuths φ_j in {B}
     turns: jnp.ndarray        #: (J, 2) the walk's signed turn (rad): the short way, the long way
     walk_open: jnp.ndarray    #: (J, 2) bool: the walk keeps out of the obstacles' margin
     walk_m: jnp.ndarray       #: (J, 2) the walk's length (m)
+    angles: jnp.ndarray       #: (A,) the push's turn α from the inward normal (rad)
     travel_m: jnp.ndarray     #: (L,) each push's travel: the walk's clearance and the push length
-    push_clear: jnp.ndarray   #: (J, L) bool: the push's rollout keeps out of the margin
-    states: jnp.ndarray       #: (J, L, P, 5) the push's rollout, each slot's end
-    d_end: jnp.ndarray        #: (J, L) d after the push (m, eq. 9b along V)
-    d_now: jnp.ndarray        #: d now
-    score: jnp.ndarray        #: (J, 2, L) d_end + w_t · travel; inf where blocked
+    push_clear: jnp.ndarray   #: (J, A, L) bool: the push's rollout keeps out of the margin
+    ends: jnp.ndarray         #: (J, A, L, 5) the state at each push's end
+    end: jnp.ndarray          #: (J, A, L) the measure after the push: d (m, eq. 9b along V), or E near the goal
+    now: jnp.ndarray          #: the measure now
+    score: jnp.ndarray        #: (J, 2, A, L) the end's measure (and the far search's w_t · travel); inf where blocked
+
+
+def _candidates(x: jnp.ndarray, contour: Contour, scene: Scene, weights: CostWeights, params: jnp.ndarray,
+                mu: jnp.ndarray, targets: int, angles: tuple[float, ...], lengths: tuple[float, ...], clearance: float,
+                slots: int | None, tolerance: float, speed: float) -> tuple[jnp.ndarray, ...]:
+    """The walks and pushes of the module docstring from state ``x`` (5,), judged for the margin:
+    (targets, turns, walk_open, walk_m, angles, travel, push_clear, ends) as in :class:`PushCandidates`. Each push
+    is rolled out in ``slots`` slots of its own; with ``slots`` None the lengths (ascending) of one target and turn
+    share one rollout, a slot from each length's end to the next, and a push is clear where every slot up to its
+    length is."""
+    dtype = jnp.float32
+    J = targets
+    xb, yb, c, s, bx, by = pusher_in_body(x, dtype)
+    th = x[2]
+    phi0 = jnp.arctan2(by, bx)
+    phis = jnp.asarray(2 * np.pi * np.arange(J) / J - np.pi, dtype)                  # (J,)
+    short = jnp.arctan2(jnp.sin(phis - phi0), jnp.cos(phis - phi0))
+    long = short - 2 * jnp.pi * jnp.where(short >= 0, 1.0, -1.0)
+    turns = jnp.concatenate([short, long])                                            # (2J,): short, then long
+    walk, arc, inward = walk_curve(x, contour, jnp.concatenate([phis, phis]), turns, clearance)
+    wx = xb + c * walk[..., 0] - s * walk[..., 1]                                     # (2J, M) in {W}
+    wy = yb + s * walk[..., 0] + c * walk[..., 1]
+    still = tuple(jnp.broadcast_to(v, wx.shape) for v in (xb, yb, th))
+    walk_open = ~jnp.any(_blocked((*still, wx, wy), scene, weights, tolerance), axis=1)   # (2J,)
+    # the pushes, one per target, turn and length, from the walk's end along the turned inward normal, fixed in {W}
+    end = walk[:J, -1]                                                                # (J, 2) in {B}
+    p0 = jnp.stack([xb + c * end[:, 0] - s * end[:, 1], yb + s * end[:, 0] + c * end[:, 1]], -1)
+    alpha = jnp.asarray(angles, dtype)                                                # (A,)
+    n_b = _turned(inward[:J, None, :], alpha[None, :])                                # (J, A, 2) in {B}
+    n_w = jnp.stack([c * n_b[..., 0] - s * n_b[..., 1], s * n_b[..., 0] + c * n_b[..., 1]], -1)
+    travel = clearance + jnp.asarray(lengths, dtype)                                  # (L,)
+    x_obj = x[:3].astype(dtype)
+
+    def rollout(p: jnp.ndarray, n: jnp.ndarray, dts: jnp.ndarray) -> jnp.ndarray:
+        def one(xi: jnp.ndarray, dt: jnp.ndarray) -> tuple[jnp.ndarray, jnp.ndarray]:
+            xn = integrate(contour, xi, speed * n, dt, params, mu, PUSH_SUBSTEPS)
+            return xn, xn
+        return jax.lax.scan(one, jnp.concatenate([x_obj, p]), dts)[1]                 # (slots, 5)
+
+    def blocked(states: jnp.ndarray) -> jnp.ndarray:
+        return _blocked(tuple(states[..., i] for i in range(5)), scene, weights, tolerance)
+
+    if slots is None:       # one rollout per target and turn, its slots ending at the lengths
+        dts = jnp.diff(travel, prepend=jnp.zeros(1, dtype)) / speed                   # (L,)
+        ends = jax.vmap(jax.vmap(rollout, in_axes=(None, 0, None)), in_axes=(0, 0, None))(p0, n_w, dts)   # (J, A, L, 5)
+        push_clear = jnp.cumsum(blocked(ends), axis=2) == 0                           # (J, A, L)
+    else:
+        per_length = jax.vmap(lambda p, n, t: rollout(p, n, jnp.full((slots,), t / (speed * slots), dtype)),
+                              in_axes=(None, None, 0))
+        states = jax.vmap(jax.vmap(per_length, in_axes=(None, 0, None)), in_axes=(0, 0, None))(p0, n_w, travel)
+        push_clear = ~jnp.any(blocked(states), axis=-1)                               # (J, A, L)
+        ends = states[..., -1, :]
+    return (phis, turns.reshape(2, J).T, walk_open.reshape(2, J).T, arc[:, -1].reshape(2, J).T, alpha, travel,
+            push_clear, ends)
+
+
+def _turned(n: jnp.ndarray, alpha: jnp.ndarray) -> jnp.ndarray:
+    """The vectors ``n`` (..., 2) turned by ``alpha`` (rad, counter-clockwise); exact for α = 0."""
+    ca, sa = jnp.cos(alpha), jnp.sin(alpha)
+    return jnp.stack([ca * n[..., 0] - sa * n[..., 1], sa * n[..., 0] + ca * n[..., 1]], -1)
+
+
+def _judged(parts: tuple, end: jnp.ndarray, now: jnp.ndarray, travel_weight: float) -> PushCandidates:
+    targets, turns, walk_open, walk_m, angles, travel, push_clear, ends = parts
+    ok = walk_open[:, :, None, None] & push_clear[:, None, :, :]                      # (J, 2, A, L)
+    score = end[:, None] + travel_weight * (walk_m[:, :, None, None] + travel[None, None, None, :])
+    return PushCandidates(targets, turns, walk_open, walk_m, angles, travel, push_clear, ends, end, now,
+                          jnp.where(ok, score, jnp.inf))
 
 
 def push_candidates(x: jnp.ndarray, contour: Contour, scene: Scene, weights: CostWeights, params: jnp.ndarray,
                     mu: jnp.ndarray, settings: PushPlanSettings, speed: float) -> PushCandidates:
-    """The walks and pushes of the module docstring from state ``x`` (5,), judged. ``scene`` is the plan's
-    (:func:`dexpush.problem.cost.plan_margin`). Pure and jit-able."""
-    dtype = jnp.float32
-    J, clearance = settings.targets, settings.clearance_m
-    lengths = jnp.asarray(settings.lengths_m, dtype)                                  # (L,)
-    xb, yb, c, s, bx, by = pusher_in_body(x, dtype)
-    th = x[2]
-    phi0 = jnp.arctan2(by, bx)
-    targets = jnp.asarray(2 * np.pi * np.arange(J) / J - np.pi, dtype)               # (J,)
-    short = jnp.arctan2(jnp.sin(targets - phi0), jnp.cos(targets - phi0))
-    long = short - 2 * jnp.pi * jnp.where(short >= 0, 1.0, -1.0)
-    turns = jnp.concatenate([short, long])                                            # (2J,): short, then long
-    walk, arc, inward = walk_curve(x, contour, jnp.concatenate([targets, targets]), turns, clearance)
-    wx = xb + c * walk[..., 0] - s * walk[..., 1]                                     # (2J, M) in {W}
-    wy = yb + s * walk[..., 0] + c * walk[..., 1]
-    still = tuple(jnp.broadcast_to(v, wx.shape) for v in (xb, yb, th))
-    walk_open = ~jnp.any(_blocked((*still, wx, wy), scene, weights, settings.tolerance), axis=1)   # (2J,)
-    # the pushes, one per target and length, from the walk's end along the inward normal fixed in {W}
-    end = walk[:J, -1]                                                                # (J, 2) in {B}
-    p0 = jnp.stack([xb + c * end[:, 0] - s * end[:, 1], yb + s * end[:, 0] + c * end[:, 1]], -1)
-    n_w = jnp.stack([c * inward[:J, 0] - s * inward[:J, 1], s * inward[:J, 0] + c * inward[:J, 1]], -1)
-    travel = clearance + lengths                                                      # (L,)
-    slot = travel / (speed * settings.push_slots)                                     # (L,) s
+    """The walks and pushes of the module docstring from state ``x`` (5,), judged by d along V (one turn, α = 0).
+    ``scene`` is the plan's (:func:`dexpush.problem.cost.plan_margin`). Pure and jit-able."""
+    parts = _candidates(x, contour, scene, weights, params, mu, settings.targets, (0.0,), settings.lengths_m,
+                        settings.clearance_m, settings.push_slots, settings.tolerance, speed)
+    ends = parts[-1]
+    end = _distance(tuple(ends[..., i] for i in range(5)), scene, weights)            # (J, 1, L)
+    now = _distance(tuple(x[i] for i in range(5)), scene, weights)
+    return _judged(parts, end, now, settings.travel_weight)
 
-    def push(p: jnp.ndarray, n: jnp.ndarray, dt: jnp.ndarray) -> jnp.ndarray:
-        x0 = jnp.concatenate([x[:3], p]).astype(dtype)
 
-        def one(xi: jnp.ndarray, _: None) -> tuple[jnp.ndarray, jnp.ndarray]:
-            xn = integrate(contour, xi, speed * n, dt, params, mu, PUSH_SUBSTEPS)
-            return xn, xn
-        _, states = jax.lax.scan(one, x0, None, length=settings.push_slots)
-        return states                                                                 # (P, 5)
+def endgame_candidates(x: jnp.ndarray, contour: Contour, scene: Scene, weights: CostWeights, params: jnp.ndarray,
+                       mu: jnp.ndarray, settings: PushPlanSettings, speed: float,
+                       units: tuple[float, float]) -> PushCandidates:
+    """The endgame's walks and pushes (``settings.endgame``) from state ``x`` (5,), judged by E
+    (:func:`progress_error` in ``units`` = (u_p m, u_θ rad)). Pure and jit-able."""
+    eg = settings.endgame
+    parts = _candidates(x, contour, scene, weights, params, mu, eg.targets, eg.angles_rad, eg.lengths_m,
+                        eg.clearance_m, None, settings.tolerance, speed)
+    ends = parts[-1]
+    end = progress_error(tuple(ends[..., i] for i in range(5)), scene, *units)        # (J, A, L)
+    now = progress_error(tuple(x[i] for i in range(5)), scene, *units)
+    return _judged(parts, end, now, 0.0)
 
-    states = jax.vmap(lambda p, n: jax.vmap(lambda dt: push(p, n, dt))(slot))(p0, n_w)   # (J, L, P, 5)
-    push_clear = ~jnp.any(_blocked(tuple(states[..., i] for i in range(5)), scene, weights, settings.tolerance),
-                          axis=-1)                                                    # (J, L)
-    d_end = _distance(tuple(states[:, :, -1, i] for i in range(5)), scene, weights)   # (J, L)
-    d_now = _distance(tuple(x[i] for i in range(5)), scene, weights)
-    walk_m = arc[:, -1].reshape(2, J).T                                               # (J, 2)
-    walk_open = walk_open.reshape(2, J).T
-    ok = walk_open[:, :, None] & push_clear[:, None, :]                               # (J, 2, L)
-    score = d_end[:, None, :] + settings.travel_weight * (walk_m[:, :, None] + travel[None, None, :])
-    return PushCandidates(targets, turns.reshape(2, J).T, walk_open, walk_m, travel, push_clear, states, d_end,
-                          d_now, jnp.where(ok, score, jnp.inf))
+
+def _chosen(k: PushCandidates, min_gain: float, scene: Scene, clearance: float,
+            speed: float) -> tuple[jnp.ndarray, PushPlan]:
+    """(found, plan): the lowest score of ``k``, if its end is ``min_gain`` below now."""
+    A, L = k.angles.shape[0], k.travel_m.shape[0]
+    flat = k.score.reshape(-1)
+    best = jnp.argmin(flat)
+    j, w, a, l_ = best // (2 * A * L), (best // (A * L)) % 2, (best // L) % A, best % L
+    found = jnp.isfinite(flat[best]) & (k.end[j, a, l_] <= k.now - min_gain)
+    way = jnp.sign(k.turns[j, w])
+    way = jnp.where(way == 0, 1.0, way).astype(jnp.float32)
+    duration = (k.walk_m[j, w] + k.travel_m[l_]) / speed
+    f32 = jnp.float32
+    plan = PushPlan(found, jnp.bool_(False), k.targets[j], way, jnp.zeros(2, f32), k.travel_m[l_],
+                    (1.5 * duration + 1.0).astype(f32), jnp.int32(0),
+                    jnp.asarray(scene.margin, f32), jnp.asarray(scene.pusher_margin, f32), k.angles[a],
+                    jnp.asarray(clearance, f32))
+    return found, plan
 
 
 def search_push(x: jnp.ndarray, contour: Contour, scene: Scene, weights: CostWeights, params: jnp.ndarray,
@@ -187,17 +327,16 @@ def search_push(x: jnp.ndarray, contour: Contour, scene: Scene, weights: CostWei
     """(found, plan) from state ``x`` (5,): the lowest score of :func:`push_candidates`, and whether its push
     brings the object ``settings.min_gain_m`` nearer the goal. Pure and jit-able."""
     k = push_candidates(x, contour, scene, weights, params, mu, settings, speed)
-    L = k.travel_m.shape[0]
-    best = jnp.argmin(k.score.reshape(-1))
-    j, w, l_ = best // (2 * L), (best // L) % 2, best % L
-    found = jnp.isfinite(k.score.reshape(-1)[best]) & (k.d_end[j, l_] <= k.d_now - settings.min_gain_m)
-    way = jnp.sign(k.turns[j, w])
-    way = jnp.where(way == 0, 1.0, way).astype(jnp.float32)
-    duration = (k.walk_m[j, w] + k.travel_m[l_]) / speed
-    plan = PushPlan(found, jnp.bool_(False), k.targets[j], way, jnp.zeros(2, jnp.float32), k.travel_m[l_],
-                    (1.5 * duration + 1.0).astype(jnp.float32), jnp.int32(0),
-                    jnp.asarray(scene.margin, jnp.float32), jnp.asarray(scene.pusher_margin, jnp.float32))
-    return found, plan
+    return _chosen(k, settings.min_gain_m, scene, settings.clearance_m, speed)
+
+
+def search_endgame_push(x: jnp.ndarray, contour: Contour, scene: Scene, weights: CostWeights, params: jnp.ndarray,
+                        mu: jnp.ndarray, settings: PushPlanSettings, speed: float,
+                        units: tuple[float, float]) -> tuple[jnp.ndarray, PushPlan]:
+    """(found, plan) from state ``x`` (5,) near the goal: the lowest E of :func:`endgame_candidates`, and whether it
+    is ``settings.endgame.min_gain`` below E now. Pure and jit-able."""
+    k = endgame_candidates(x, contour, scene, weights, params, mu, settings, speed, units)
+    return _chosen(k, settings.endgame.min_gain, scene, settings.endgame.clearance_m, speed)
 
 
 def follow_push(plan: PushPlan, x: jnp.ndarray, contour: Contour, scene: Scene, weights: CostWeights,
@@ -210,14 +349,14 @@ def follow_push(plan: PushPlan, x: jnp.ndarray, contour: Contour, scene: Scene, 
     # the turn still to make, the plan's way round; a small overshoot counts as a small turn back
     ahead = jnp.mod(plan.way * (plan.target - phi), 2 * jnp.pi)
     ahead = jnp.where(ahead > 2 * jnp.pi - 0.2, ahead - 2 * jnp.pi, ahead)
-    arrived = (jnp.abs(ahead) < AT_TARGET_RAD) & (contact_gap(contour, x) < settings.clearance_m + AT_TARGET_M)
+    arrived = (jnp.abs(ahead) < AT_TARGET_RAD) & (contact_gap(contour, x) < plan.clearance + AT_TARGET_M)
     start_push = plan.active & ~plan.pushing & arrived
-    inward = inward_normal(contour, plan.target[None])[0]
-    n_w = jnp.stack([c * inward[0] - s * inward[1], s * inward[0] + c * inward[1]])
+    n_b = _turned(inward_normal(contour, plan.target[None])[0], plan.angle)
+    n_w = jnp.stack([c * n_b[0] - s * n_b[1], s * n_b[0] + c * n_b[1]])
     direction = jnp.where(start_push, n_w, plan.direction)
     pushing = plan.pushing | start_push
     walk_u = walk_and_push(x, contour, jnp.full((2,), period, dtype), plan.target[None],
-                           (plan.way * ahead)[None], speed, settings.clearance_m, plan.left_m)[0, 0]
+                           (plan.way * ahead)[None], speed, plan.clearance, plan.left_m)[0, 0]
     u = jnp.where(pushing, speed * direction, walk_u)
     left = jnp.where(pushing, plan.left_m - speed * period, plan.left_m)
     x1 = integrate(contour, x.astype(dtype), u, jnp.asarray(period, dtype), params, mu, PUSH_SUBSTEPS)
@@ -227,8 +366,8 @@ def follow_push(plan: PushPlan, x: jnp.ndarray, contour: Contour, scene: Scene, 
     safe = ~_blocked(tuple(x1[i] for i in range(5)), held, weights, settings.tolerance)
     use = plan.active & safe & (plan.time_left > 0) & jnp.all(jnp.isfinite(u))
     active = use & (left > 0)
-    new = PushPlan(active, pushing & active, plan.target, plan.way, direction, left,
-                   plan.time_left - period, plan.started, plan.margin, plan.pusher_margin)
+    new = plan._replace(active=active, pushing=pushing & active, direction=direction, left_m=left,
+                        time_left=plan.time_left - period)
     return new, jnp.where(use, u, 0.0), use
 
 

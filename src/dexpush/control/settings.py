@@ -24,12 +24,12 @@ from dexpush.common.checks import check_nonnegative, check_positive
 from dexpush.common.settings import grouped
 from dexpush.control.estimator import UKFSettings
 from dexpush.control.mppi import MPPISettings
-from dexpush.control.push_plan import PushPlanSettings
+from dexpush.control.push_plan import EndgamePushSettings, PushPlanSettings
 from dexpush.model.cgvmm import MU_C
 from dexpush.problem.weights import CostWeights
 
-__all__ = ["ControllerSettings", "EndgameSettings", "PredictionMarginSettings", "ProposalSettings", "PushPlanSettings",
-           "StallSettings"]
+__all__ = ["ControllerSettings", "EndgamePushSettings", "EndgameSettings", "PredictionMarginSettings",
+           "ProposalSettings", "PushPlanSettings", "StallSettings"]
 
 
 def _whole(name: str, value: object, low: int) -> None:
@@ -50,13 +50,15 @@ class StallSettings:
     progress_m: float = 0.005
     progress_deg: float = 2.0
     contact_gap_m: float = 0.005      #: the clock runs only while the pusher is farther than this from the contour ...
-    #: ... and the object is not within both of these of the goal (m, degrees): the final approach
-    #: to the success tolerances (8 mm, 3°) is slow by nature
-    min_distance_m: float = 0.015
-    min_heading_deg: float = 5.0
+    #: ... and the object is not within both of these of the goal (m, degrees): the success tolerances,
+    #: where the object is done; short of them a stall near the goal searches the endgame's push
+    #: (``push_plan.endgame``)
+    min_distance_m: float = 0.008
+    min_heading_deg: float = 3.0
     backoff: float = 2.0              #: each restart without progress makes the next wait this many times longer
     #: after a stall the planner looks this many times further ahead (every slot Δt_k after the first
-    #: stretched), until the object comes closer again or is near the goal; 1 keeps the paper's horizon
+    #: stretched), until the object comes closer again or is within ``endgame.distance_m`` of the goal (not
+    #: stretched there: the endgame needs the fine slots); 1 keeps the paper's horizon
     horizon_scale: float = 2.0
 
     def __post_init__(self) -> None:

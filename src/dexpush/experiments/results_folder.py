@@ -92,7 +92,8 @@ def run_settings(plant: str, sensor: Sensor | None, settings: ControllerSettings
 #: of these options was off in the versions without it
 ABSENT_MEANS = {"stall": {"after_s": None}, "endgame": {"temperature": None}, "prediction_margin": {"gain": 0.0},
                 "weights": {"detour": False, "C_margin": None, "guidance": False, "guidance_goal_heading": False},
-                "mppi": {"update": "clipped", "spread_cap": None}, "push_plan": {"enabled": False}}
+                "mppi": {"update": "clipped", "spread_cap": None},
+                "push_plan": {"enabled": False, "endgame": {"enabled": False}}}
 
 
 def _with_defaults(saved: object, defaults: dict) -> object:
