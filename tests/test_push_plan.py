@@ -16,6 +16,7 @@ from dexpush.control.policy import ControllerSettings, plan_step, policy_init, p
 from dexpush.control.push_plan import (
     EndgamePushSettings,
     PushPlanSettings,
+    endgame_candidates,
     follow_push,
     idle_push,
     progress_error,
@@ -108,10 +109,11 @@ def test_nothing_is_chosen_when_no_push_gains() -> None:
 
 
 @pytest.mark.parametrize("shape", [RECT, Shape.tee()], ids=["box", "tee"])
-@pytest.mark.parametrize("offset", [(-0.012, 0.004, 0.0), (0.0, -0.014, 0.02), (0.01, 0.01, -0.03)])
+@pytest.mark.parametrize("offset", [(-0.012, 0.004, 0.0), (0.0, -0.014, 0.02), (0.01, 0.01, -0.03),
+                                    (0.0, 0.0, 0.09)])
 def test_near_the_goal_the_endgame_push_brings_the_object_within_the_success_tolerances(shape, offset) -> None:
-    """1–1.5 cm and up to 2° from the goal, the pusher 4 cm off the object: one push chosen by E (the success test's
-    terms) and carried out on the model plant ends within 8 mm and 3°, without a touch."""
+    """1–1.5 cm and up to 2° from the goal, or at it but 5° off, the pusher 4 cm off the object: one push chosen by E
+    (the success test's terms) and carried out on the model plant ends within 8 mm and 3°, without a touch."""
     problem = Problem(shape, (0.0, 0.0, 0.0))
     x = np.array([*offset, 0.0, 0.0])
     below = min(float(poly[:, 1].min()) for poly in shape.polygons)
@@ -126,6 +128,19 @@ def test_near_the_goal_the_endgame_push_brings_the_object_within_the_success_tol
     units = progress_units(ControllerSettings())
     assert float(progress_error(jnp.asarray(end, jnp.float32), problem.local_scene, *units)) < \
         float(progress_error(jnp.asarray(x, jnp.float32), problem.local_scene, *units)) - PP.endgame.min_gain
+
+
+def test_the_endgame_measures_the_position_error_straight_not_along_the_cost_to_go() -> None:
+    """With a cost-to-go by heading (a table round the goal) the length along V counts the turn too; the endgame's
+    E takes the distance itself, as the success test does: 2 mm and 1.15° off is E = 1.15° / 2° there."""
+    goal = (0.0, 0.0, np.pi / 16)
+    problem = Problem(Shape.tee(), goal, workspace=(-0.5, -0.5, 0.5, 0.5))
+    x = jnp.asarray([0.002, 0.0, goal[2] + 0.02, 0.0, -0.2], jnp.float32)
+    units = progress_units(ControllerSettings())
+    scene = plan_margin(x, problem.local_scene, problem.weights)
+    k = endgame_candidates(x, problem.contour, scene, problem.weights, LAM, MU, PP, MP.v_clip, units)
+    assert float(k.now) == pytest.approx(0.02 / units[1], rel=1e-4)
+    assert float(progress_error(x, scene, *units)) > float(k.now) + 0.1      # along V: 3.5 mm, E = 0.71
 
 
 def test_a_stall_near_the_goal_searches_the_endgame_push_and_far_from_it_the_far_one() -> None:

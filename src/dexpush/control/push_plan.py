@@ -30,10 +30,10 @@ must not turn the object it nearly has, and the T or the ellipse has few contact
 straight: :func:`search_endgame_push` weighs finer targets (J = 48), the push turned by α_a from the
 inward normal (within the friction cone, |α| < atan μ_c), short lengths and a closer walk
 (:class:`EndgamePushSettings`; the lengths of one target and turn share one rollout, a slot from each length's
-end to the next), and scores each by the stall watch's own error
-(:func:`dexpush.control.policy.watch_progress`), in the success test's terms:
+end to the next), and scores each by the stall watch's error (:func:`dexpush.control.policy.watch_progress`),
+in the success test's terms:
 
-    E(x) = max(e_p / u_p, e_θ / u_θ),   e_p = √d²(q_sb, q_g) with c = 0,  e_θ = |θ − θ_g|
+    E(x) = max(e_p / u_p, e_θ / u_θ),   e_p = √d²(q_sb, q_g) with c = 0 (not along V),  e_θ = |θ − θ_g|
 
 (u_p, u_θ: ``stall.progress_m``, ``stall.progress_deg``), chosen if E(x_end) is at least ``min_gain`` below
 E(x) now. One push seldom ends the trial; the next stall searches again from where it ended
@@ -168,18 +168,20 @@ def push_plan_init() -> PushPlan:
                     jnp.int32(0), f, f, f, f)
 
 
-def goal_errors(x: tuple | jnp.ndarray, scene: Scene) -> tuple[jnp.ndarray, jnp.ndarray]:
+def goal_errors(x: tuple | jnp.ndarray, scene: Scene, guided: bool = True) -> tuple[jnp.ndarray, jnp.ndarray]:
     """(e_p, e_θ) for states ``x`` (leading axis 5): the position error round the obstacles
-    (:func:`dexpush.problem.cost.goal_distance_sq` with c = 0, m) and the heading error (rad; 0 for a goal region
-    without a heading). Pure and jit-able."""
-    e_p = jnp.sqrt(goal_distance_sq(x, scene, 0.0))
+    (:func:`dexpush.problem.cost.goal_distance_sq` with c = 0, m; along the cost-to-go unless ``guided`` is False,
+    whose length with heading layers counts the turn too) and the heading error (rad; 0 for a goal region without
+    a heading). Pure and jit-able."""
+    e_p = jnp.sqrt(goal_distance_sq(x, scene, 0.0, guided))
     return e_p, jnp.abs(wrap_angle(x[2] - scene.goal[2], jnp)) * scene.heading_weight
 
 
-def progress_error(x: tuple | jnp.ndarray, scene: Scene, unit_m: float, unit_rad: float) -> jnp.ndarray:
+def progress_error(x: tuple | jnp.ndarray, scene: Scene, unit_m: float, unit_rad: float,
+                   guided: bool = True) -> jnp.ndarray:
     """E = max(e_p / u_p, e_θ / u_θ) of the module docstring for states ``x`` (leading axis 5), with
     :func:`goal_errors`. Pure and jit-able."""
-    e_p, e_th = goal_errors(x, scene)
+    e_p, e_th = goal_errors(x, scene, guided)
     return jnp.maximum(e_p / unit_m, e_th / unit_rad)
 
 
@@ -297,9 +299,9 @@ def endgame_candidates(x: jnp.ndarray, contour: Contour, scene: Scene, weights: 
     eg = settings.endgame
     parts = _candidates(x, contour, scene, weights, params, mu, eg.targets, eg.angles_rad, eg.lengths_m,
                         eg.clearance_m, None, settings.tolerance, speed)
-    ends = parts[-1]
-    end = progress_error(tuple(ends[..., i] for i in range(5)), scene, *units)        # (J, A, L)
-    now = progress_error(tuple(x[i] for i in range(5)), scene, *units)
+    ends = parts[-1]     # (near the goal e_p is the success test's: not along V, whose layers count the turn)
+    end = progress_error(tuple(ends[..., i] for i in range(5)), scene, *units, guided=False)   # (J, A, L)
+    now = progress_error(tuple(x[i] for i in range(5)), scene, *units, guided=False)
     return _judged(parts, end, now, 0.0)
 
 

@@ -130,16 +130,16 @@ def guided_length_sq(x: jnp.ndarray, y: jnp.ndarray, th: jnp.ndarray, scene: Sce
     return jnp.maximum(dx * dx + dy * dy, ell * ell)
 
 
-def goal_distance_sq(x: State, scene: Scene, c: float) -> jnp.ndarray:
+def goal_distance_sq(x: State, scene: Scene, c: float, guided: bool = True) -> jnp.ndarray:
     """d²(q_sb, q_g) of eq. (9b–9c) for states x: the decoupled distance, whose position part is
     ℓ² along the cost-to-go (:func:`guided_length_sq`) when the scene has one (with one layer, the larger of
     it and the detour where the scene also has discs and the object has no bounds of its own), round the detour
     discs (:func:`detour_length_sq`) when it has those alone, and straight otherwise. For a goal region
     (:mod:`dexpush.problem.goal_region`) the position part is the squared distance to its aimed part
     (:func:`dexpush.problem.goal_region.region_distance_sq`), and the heading part counts only where the region
-    has a heading."""
+    has a heading. ``guided`` False leaves the cost-to-go out (round the detour discs, or straight)."""
     xb, yb, th, *_ = components(x)
-    return _goal_distance_sq(xb, yb, th, scene, c)
+    return _goal_distance_sq(xb, yb, th, scene, c, guided)
 
 
 def _goal_distance_sq(xb: jnp.ndarray, yb: jnp.ndarray, th: jnp.ndarray, scene: Scene, c: float,
