@@ -33,6 +33,34 @@ def test_run_writes_files_and_prints_json_last(tmp_path: Path, capsys) -> None:
     assert not list(out.glob(".*")), "temporary files left behind"
 
 
+def test_push_candidates_reads_a_run_folder_and_says_what_both_searches_see(tmp_path: Path, capsys,
+                                                                              monkeypatch) -> None:
+    """``benchmarks/push_candidates.py`` on a run folder: both searches' counts and best pushes; a folder that is not
+    a run's is refused in one line."""
+    import importlib.util
+
+    import numpy as np
+
+    out = tmp_path / "run"      # a run folder's two files: the box 3 cm short of Task III's goal, the pusher behind
+    out.mkdir()
+    (out / "summary.json").write_text(json.dumps({"task": "III", "shape": "rect", "seed": 2}))
+    states = np.array([[0.57, 0.0, 0.0, 0.44, 0.0]] * 12)
+    np.savez(out / "trajectory.npz", states=states, params=np.array([[15.0, 0.0, 0.0]] * 11))
+    spec = importlib.util.spec_from_file_location("push_candidates", Path(__file__).resolve().parents[1]
+                                                  / "benchmarks" / "push_candidates.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    monkeypatch.setattr(sys, "argv", ["push_candidates.py", str(out), "--step", "10"])
+    script.main()
+    text = capsys.readouterr().out
+    assert "task III rect seed 2, step 10: 30.0 mm and 0.00 deg from the goal" in text
+    assert "far search (measure d, m):" in text and "32 walks open" in text and "/48 pushes clear" in text
+    assert "endgame search (measure E):" in text and "96 walks open" in text and "/864 pushes clear" in text
+    monkeypatch.setattr(sys, "argv", ["push_candidates.py", str(tmp_path)])
+    with pytest.raises(SystemExit, match="not a dexpush run folder"):
+        script.main()
+
+
 @pytest.mark.slow   # `make demo` runs it; the run path is covered in-process above, the entry point below
 def test_demo_succeeds(tmp_path: Path) -> None:
     proc = dexpush("demo", "--quiet", "--no-animation", "--out", str(tmp_path))
