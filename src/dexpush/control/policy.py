@@ -161,11 +161,16 @@ def progress_units(settings: ControllerSettings) -> tuple[float, float]:
     return settings.stall.progress_m, float(np.radians(settings.stall.progress_deg))
 
 
+def _in_endgame(x: jnp.ndarray, scene: Scene, settings: ControllerSettings) -> jnp.ndarray:
+    """Whether the object is within ``endgame.distance_m`` of the goal (round the obstacles)."""
+    return goal_distance_sq(x, scene, 0.0) <= settings.endgame.distance_m ** 2
+
+
 def _temperature(x: jnp.ndarray, scene: Scene, settings: ControllerSettings) -> jnp.ndarray | None:
     """τ for this iteration: ``endgame.temperature`` within ``endgame.distance_m`` of the goal."""
     if settings.endgame.temperature is None:
         return None
-    near = goal_distance_sq(x, scene, 0.0) <= settings.endgame.distance_m ** 2
+    near = _in_endgame(x, scene, settings)
     return jnp.where(near, jnp.float32(settings.endgame.temperature), jnp.float32(settings.mppi.temperature))
 
 
@@ -234,8 +239,8 @@ def _push_plan(state: ControllerState, x: jnp.ndarray, u: jnp.ndarray, stalled: 
 
     def search() -> PushPlan:
         if pp.endgame.enabled:      # within endgame.distance_m the endgame's search
-            close = goal_distance_sq(x, scene, 0.0) <= settings.endgame.distance_m ** 2
-            found, plan = jax.lax.cond(close, lambda: search_endgame_push(x, *args, progress_units(settings)),
+            found, plan = jax.lax.cond(_in_endgame(x, scene, settings),
+                                       lambda: search_endgame_push(x, *args, progress_units(settings)),
                                        lambda: search_push(x, *args))
         else:
             found, plan = search_push(x, *args)
