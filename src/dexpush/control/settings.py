@@ -26,6 +26,7 @@ from dexpush.control.estimator import UKFSettings
 from dexpush.control.mppi import MPPISettings
 from dexpush.control.push_plan import EndgamePushSettings, PushPlanSettings
 from dexpush.model.cgvmm import MU_C
+from dexpush.problem.problem import SUCCESS_HEADING_DEG, SUCCESS_POSITION_M
 from dexpush.problem.weights import CostWeights
 
 __all__ = ["ControllerSettings", "EndgamePushSettings", "EndgameSettings", "PredictionMarginSettings",
@@ -53,8 +54,8 @@ class StallSettings:
     #: ... and the object is not within both of these of the goal (m, degrees): the success tolerances,
     #: where the object is done; short of them a stall near the goal searches the endgame's push
     #: (``push_plan.endgame``)
-    min_distance_m: float = 0.008
-    min_heading_deg: float = 3.0
+    min_distance_m: float = SUCCESS_POSITION_M
+    min_heading_deg: float = SUCCESS_HEADING_DEG
     backoff: float = 2.0              #: each restart without progress makes the next wait this many times longer
     #: after a stall the planner looks this many times further ahead (every slot Δt_k after the first
     #: stretched), until the object comes closer again or is within ``endgame.distance_m`` of the goal (not
