@@ -149,7 +149,7 @@ def watch_progress(state: ControllerState, x: jnp.ndarray, *, contour: Contour, 
     patience = settings.stall.after_s * jnp.float32(settings.stall.backoff) ** streak.astype(jnp.float32)
     stalled = idle >= patience - 0.5 * T    # (float32 sums of T)
     scale = jnp.float32(settings.stall.horizon_scale)
-    close = e_p <= settings.endgame.distance_m     # the endgame's fine slots: no stretch there
+    close = _in_endgame(x, scene, settings)       # the endgame's fine slots: no stretch there
     stretch = jnp.where(stalled & ~close, scale, jnp.where(improved | near | close, 1.0, state.stretch))
     restarts = stalled.astype(jnp.int32)
     return state._replace(best=jnp.where(improved, error, state.best), idle=jnp.where(stalled, 0.0, idle),
