@@ -69,14 +69,16 @@ def setup_of(record: dict) -> dict:
     kept no bent way's room; before docs/robot.md#the-tasks-area-round-the-disc, the area's margin was 0.25 m;
     before docs/robot.md#the-objects-clearance, the filter had no object watch; before
     docs/robot.md#libfrankas-filter, the arm's stream went through libfranka's 100-Hz low-pass; without the arm
-    there is no stream to filter)."""
+    there is no stream to filter; before docs/workspaces.md#the-endgame-push-2026-12-07 there was no endgame
+    push)."""
     filtered = record.get("filtered", record["plant"] != "physics")
     annulus = "bent_way_room_m" in record or "bent_way_room_m" in record.get("robot", {})
     return {"plant": record["plant"], "filter": "on" if filtered else "off",
             "reach": tuple(record.get("reach", RobotSettings().driver.reach)),
             "band": "annulus" if annulus else "chord", "area margin": record.get("workspace_margin", 0.25),
             "object watch": "on" if record.get("object_watch", False) else "off",
-            "libfranka cutoff": None if record["plant"] == "physics" else record.get("cutoff_frequency", 100.0)}
+            "libfranka cutoff": None if record["plant"] == "physics" else record.get("cutoff_frequency", 100.0),
+            "endgame push": "on" if record.get("endgame_push", False) else "off"}
 
 
 def row(records: list[dict]) -> dict:
@@ -174,7 +176,8 @@ def main() -> None:
     setup = {"plant": "physics" if args.without_arm else "franka-sim",
              "filter": "on" if args.with_filter or not args.without_arm else "off", "reach": robot.driver.reach,
              "band": "annulus", "area margin": robot.workspace_margin,
-             "libfranka cutoff": None if args.without_arm else robot.driver.cutoff_frequency}
+             "libfranka cutoff": None if args.without_arm else robot.driver.cutoff_frequency,
+             "endgame push": "on" if settings.push_plan.enabled and settings.push_plan.endgame.enabled else "off"}
     setup["object watch"] = "on" if setup["filter"] == "on" and robot.object_watch is not None else "off"
     other = sorted({k for r in records for k, v in setup_of(r).items() if v != setup[k]})
     if other:
@@ -213,6 +216,7 @@ def main() -> None:
                 rec = {**dataclasses.asdict(episode.record), "shape": shape_name, **side,
                        "spread_cap": settings.mppi.spread_cap, "guidance_turn_m": settings.weights.guidance_turn_m,
                        "guidance_goal_heading": settings.weights.guidance_goal_heading,
+                       "push_plan": settings.push_plan.enabled, "endgame_push": setup["endgame push"] == "on",
                        "reach": list(robot.driver.reach), "cutoff_frequency": setup["libfranka cutoff"],
                        "workspace_margin": robot.workspace_margin,
                        "filtered": setup["filter"] == "on", "object_watch": setup["object watch"] == "on",

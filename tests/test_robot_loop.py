@@ -480,7 +480,8 @@ def test_the_robot_benchmarks_object_watch_needs_the_filter_and_a_folder_of_its_
     with pytest.raises(SystemExit, match=r"^error: --object-watch is the filter's: with --without-arm give --with"):
         robot_sim.main()
     record = {"plant": "physics", "filtered": True, "reach": [0.36, 0.8], "bent_way_room_m": 0.01,
-              "workspace_margin": 0.4, "object_watch": False, "task": "III", "shape": "rect", "seed": 0}
+              "workspace_margin": 0.4, "object_watch": False, "endgame_push": True, "task": "III", "shape": "rect",
+              "seed": 0}
     (tmp_path / "records.jsonl").write_text(json.dumps(record) + "\n")
     assert robot_sim.setup_of(record)["object watch"] == "off"
     assert robot_sim.setup_of({**record, "object_watch": True})["object watch"] == "on"
@@ -489,6 +490,11 @@ def test_the_robot_benchmarks_object_watch_needs_the_filter_and_a_folder_of_its_
     assert robot_sim.setup_of({**record, "plant": "franka-sim"})["libfranka cutoff"] == 100.0
     arm_record = {**record, "plant": "franka-sim", "cutoff_frequency": 1000.0}
     assert robot_sim.setup_of(arm_record)["libfranka cutoff"] == 1000.0
+    # records before the endgame push hold no key for it: they ran without it
+    assert robot_sim.setup_of({k: v for k, v in record.items() if k != "endgame_push"})["endgame push"] == "off"
+    monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--object-watch", "--no-endgame-push"])
+    with pytest.raises(SystemExit, match=r"holds episodes with another endgame push and object watch than this run's"):
+        robot_sim.main()
     monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--object-watch"])
     with pytest.raises(SystemExit, match=r"holds episodes with another object watch than this run's"):
         robot_sim.main()
