@@ -380,6 +380,35 @@ def test_mppi_settings_that_give_no_plan_are_refused(bad, says) -> None:
         MPPISettings(**bad)
 
 
+def _whole_settings() -> list:
+    from dexpush import ControllerSettings, MPPISettings
+    from dexpush.control.estimator import UKFSettings
+    from dexpush.control.push_plan import EndgamePushSettings, PushPlanSettings
+    from dexpush.control.settings import ProposalSettings
+    from dexpush.world.sensing import SensorSettings
+
+    return [(lambda v: ProposalSettings(count=v), 0), (lambda v: ControllerSettings(ukf_substeps=v), 1),
+            (lambda v: PushPlanSettings(targets=v), 2), (lambda v: EndgamePushSettings(targets=v), 2),
+            (lambda v: MPPISettings(horizon=v), 1), (lambda v: UKFSettings(window=v), 1),
+            (lambda v: SensorSettings(seed=v), 0)]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.one_of(st.integers(-3, 40), st.floats(-3, 40, allow_nan=True), st.booleans(), st.text(max_size=3),
+                 st.none()), st.integers(0, 6))
+def test_every_whole_number_setting_keeps_one_rule(value, which) -> None:
+    """A count in the settings is an int at or above its least value; a bool, a float (even 3.0), a string or
+    None is refused with one line naming the setting: a float count would otherwise fail later as an array
+    size (settings files convert 3.0 to 3 before they get here)."""
+    make, low = _whole_settings()[which]
+    if isinstance(value, int) and not isinstance(value, bool) and value >= low:
+        make(value)
+        return
+    with pytest.raises(ValueError, match=r"must be a whole number .*got") as info:
+        make(value)
+    assert "\n" not in str(info.value)
+
+
 def test_a_centre_of_friction_outside_the_footprint_is_refused(capsys) -> None:
     from dexpush.world.model_plant import ModelPlant
 

@@ -73,6 +73,18 @@ def check_nonnegative(name: str, value: object, unit: str = "") -> float:
 MAX_BETA = 1e4
 
 
+def check_whole(name: str, value: object, low: int, high: int | None = None) -> int:
+    """``value`` as an int in [low, high] (no upper bound when ``high`` is None), else a ``ValueError`` naming
+    it. A whole number is an ``int`` (or a numpy integer), never a bool or a float such as 3.0: settings read
+    from files are converted before they get here (``dexpush.cli.settings_file``), and a float count would
+    fail later, deep inside, as an array size."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low \
+            or (high is not None and value > high):
+        bounds = f">= {low}" if high is None else f"from {low} to {high}"
+        raise ValueError(f"{name} must be a whole number {bounds}, got {value!r}")
+    return int(value)
+
+
 def check_params(params: object) -> None:
     """Reject λ = [β, x_bf, y_bf] outside the model's valid range: β in (0, 1e4] 1/m (β = 0 makes the
     limit surface degenerate; β = 1e4 is an object 0.1 mm across) and |x_bf|, |y_bf| ≤ 1 m."""

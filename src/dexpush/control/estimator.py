@@ -61,7 +61,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.common.checks import check_positive
+from dexpush.common.checks import check_positive, check_whole
 from dexpush.common.se2 import wrap_angle
 from dexpush.common.settings import grouped
 from dexpush.control.ukf import SigmaPoints, UKFState, clean_covariance, ukf_update
@@ -149,8 +149,7 @@ class UKFSettings:
     follow: Follow = field(default_factory=Follow)              #: how λ_pred follows the filter's mean
 
     def __post_init__(self) -> None:
-        if int(self.window) != self.window or self.window < 1:
-            raise ValueError(f"window must be a whole number >= 1, got {self.window!r}")
+        check_whole("window", self.window, 1)
         for name in ("process_std", "init_std", "lower", "upper"):
             v = np.asarray(getattr(self, name), dtype=np.float64)
             if v.shape != (3,) or not np.all(np.isfinite(v)):

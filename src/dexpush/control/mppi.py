@@ -69,7 +69,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.common.checks import check_nonnegative, check_positive
+from dexpush.common.checks import check_nonnegative, check_positive, check_whole
 from dexpush.common.interfaces import CONTROL_PERIOD_S
 from dexpush.control import noise
 
@@ -123,9 +123,7 @@ class MPPISettings:
     def __post_init__(self) -> None:
         for name, low, high in (("num_samples", MIN_SAMPLES, MAX_SAMPLES), ("horizon", 1, MAX_HORIZON),
                                 ("explore_knots", 0, MAX_HORIZON), ("check_substeps", 1, 100)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | np.integer) or not low <= v <= high:
-                raise ValueError(f"{name} must be a whole number from {low} to {high}, got {v!r}")
+            check_whole(name, getattr(self, name), low, high)
         check_nonnegative("growth", self.growth)
         if not 0.0 <= self.refine_fraction <= 1.0:
             raise ValueError(f"refine_fraction must be in [0, 1], got {self.refine_fraction!r}")

@@ -49,7 +49,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from dexpush.common.checks import check_nonnegative, check_positive
+from dexpush.common.checks import check_nonnegative, check_positive, check_whole
 from dexpush.common.se2 import wrap_angle
 from dexpush.control.proposals import inward_normal, pusher_in_body, walk_and_push, walk_curve
 from dexpush.model.cgvmm import MU_C, Contour, contact_gap, integrate
@@ -76,11 +76,6 @@ def _lengths(where: str, lengths: object) -> tuple[float, ...]:
     return tuple(float(v) for v in lengths)
 
 
-def _check_whole(where: str, v: object, low: int) -> None:
-    if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < low:
-        raise ValueError(f"{where} must be a whole number >= {low}, got {v!r}")
-
-
 @dataclass(frozen=True)
 class EndgamePushSettings:
     """The push searched after a stall within ``endgame.distance_m`` of the goal (:func:`search_endgame_push`):
@@ -99,7 +94,7 @@ class EndgamePushSettings:
     def __post_init__(self) -> None:
         if not isinstance(self.enabled, bool | np.bool_):
             raise ValueError(f"push_plan.endgame.enabled must be true or false, got {self.enabled!r}")
-        _check_whole("push_plan.endgame.targets", self.targets, 2)
+        check_whole("push_plan.endgame.targets", self.targets, 2)
         angles = self.angles_rad
         cone = float(np.arctan(MU_C))
         if not isinstance(angles, tuple | list) or not angles or not all(
@@ -134,7 +129,7 @@ class PushPlanSettings:
         if not isinstance(self.enabled, bool | np.bool_):
             raise ValueError(f"push_plan.enabled must be true or false, got {self.enabled!r}")
         for name, low in (("targets", 2), ("push_slots", 1)):
-            _check_whole(f"push_plan.{name}", getattr(self, name), low)
+            check_whole(f"push_plan.{name}", getattr(self, name), low)
         object.__setattr__(self, "lengths_m", _lengths("push_plan.lengths_m", self.lengths_m))
         if not isinstance(self.endgame, EndgamePushSettings):
             raise ValueError(f"push_plan.endgame must be an EndgamePushSettings, got {self.endgame!r}")

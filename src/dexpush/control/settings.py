@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dexpush.common.checks import check_nonnegative, check_positive
+from dexpush.common.checks import check_nonnegative, check_positive, check_whole
 from dexpush.common.settings import grouped
 from dexpush.control.estimator import UKFSettings
 from dexpush.control.mppi import MPPISettings
@@ -31,12 +31,6 @@ from dexpush.problem.weights import CostWeights
 
 __all__ = ["ControllerSettings", "EndgamePushSettings", "EndgameSettings", "PredictionMarginSettings",
            "ProposalSettings", "PushPlanSettings", "StallSettings"]
-
-
-def _whole(name: str, value: object, low: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer | float) or int(value) != value \
-            or value < low:
-        raise ValueError(f"{name} must be a whole number >= {low}, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -99,7 +93,7 @@ class ProposalSettings:
     clearance_m: float = 0.015        #: the walks' radial distance from the inflated contour
 
     def __post_init__(self) -> None:
-        _whole("proposals.count", self.count, 0)
+        check_whole("proposals.count", self.count, 0)
         check_positive("proposals.clearance_m", self.clearance_m, "m")
 
 
@@ -153,7 +147,7 @@ class ControllerSettings:
         check_positive("mu", self.mu, "pusher–object friction coefficient")
         if not isinstance(self.estimate_params, bool | np.bool_):
             raise ValueError(f"estimate_params must be True or False, got {self.estimate_params!r}")
-        _whole("ukf_substeps", self.ukf_substeps, 1)
+        check_whole("ukf_substeps", self.ukf_substeps, 1)
         exploring = self.mppi.num_samples - round(self.mppi.refine_fraction * self.mppi.num_samples)
         if self.proposals.count > exploring - 1:
             raise ValueError(f"proposals.count must be at most the exploring samples less one ({exploring - 1}), "

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dexpush.common.checks import check_whole
 from dexpush.model.polygons import cross2, inside_polygon, union_distance
 
 __all__ = ["CORNER_MIN_ANGLE", "check_table_size", "concave_corners", "dradius_from_normal", "radial_exact",
@@ -13,9 +14,7 @@ __all__ = ["CORNER_MIN_ANGLE", "check_table_size", "concave_corners", "dradius_f
 
 
 def check_table_size(table_size: object) -> int:
-    if isinstance(table_size, bool) or not isinstance(table_size, int | np.integer) or table_size < 64:
-        raise ValueError(f"table_size must be a whole number >= 64, got {table_size!r}")
-    return int(table_size)
+    return check_whole("table_size", table_size, 64)
 
 
 def table_azimuths(n: int) -> np.ndarray:

@@ -30,6 +30,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from dexpush.common.checks import check_whole
 from dexpush.common.interfaces import Frame, Plant
 from dexpush.perception.calibration import Board
 from dexpush.perception.camera_model import CameraModel
@@ -86,9 +87,7 @@ class RenderSettings:
         if self.setup not in SETUPS:
             raise ValueError(f"unknown camera set-up {self.setup!r}; choose one of {', '.join(SETUPS)}")
         for name in ("width", "height"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or not 64 <= v <= 4096:
-                raise ValueError(f"RenderSettings.{name} must be a whole number of pixels in [64, 4096], got {v!r}")
+            check_whole(f"RenderSettings.{name}", getattr(self, name), 64, 4096)
         if not 10.0 <= self.fovy_deg <= 120.0:
             raise ValueError(f"RenderSettings.fovy_deg must be in [10, 120] degrees, got {self.fovy_deg!r}")
         if not (math.isfinite(self.rate_hz) and 0 < self.rate_hz <= 240):

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dexpush.common.checks import check_nonnegative, check_positive, checked_vector
+from dexpush.common.checks import check_nonnegative, check_positive, check_whole, checked_vector
 from dexpush.common.interfaces import CONTROL_PERIOD_S, Frame, Observation, Plant, check_plant
 
 __all__ = ["MAX_CAMERA_HZ", "Camera", "SensorSettings"]
@@ -55,8 +55,7 @@ class SensorSettings:
                 raise ValueError(f"rate_hz must be at most {MAX_CAMERA_HZ:g} Hz, got {self.rate_hz!r}")
         if not 0.0 <= self.drop_prob < 1.0:
             raise ValueError(f"drop_prob must be in [0, 1), got {self.drop_prob!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer) or self.seed < 0:
-            raise ValueError(f"seed must be a whole number >= 0, got {self.seed!r}")
+        check_whole("seed", self.seed, 0)
 
     @staticmethod
     def realistic(seed: int = 0) -> SensorSettings:
