@@ -4,7 +4,7 @@ to goal, tip tracking, limit checks and real-time factor per task and shape (doc
     python benchmarks/robot_sim.py --out docs/results/robot [--tasks I,II,III,IV] [--shapes rect]
                                    [--seeds 0-29] [--max-steps 1500]
                                    [--camera rendered [--camera-setup two]] [--without-arm]
-                                   [--with-filter] [--object-watch] [--reach R_MIN,R_MAX]
+                                   [--with-filter] [--object-watch] [--reach R_MIN,R_MAX] [--traces]
                                    [planner flags of `dexpush bench`: --spread-cap C|off, --guidance-turn M|off, ...]
 
 With ``--without-arm`` the same placed and bounded problems run on the physics plant with no robot (the
@@ -18,7 +18,9 @@ planner and the filter bounded alike by the task's area and the arm's reach (``r
 IV is the paper's confined re-arrangement (Fig. 9: a walled 0.7 × 0.5 m area, three discs between
 start and goal, the object moved to the far side and turned). Each finished
 episode is appended to ``records.jsonl`` at once, so a stopped run resumes where it stopped;
-``table.md`` is rewritten after each. Needs ``pip install 'dexpush[franka]'``; run it alone (the
+``table.md`` is rewritten after each; with ``--traces`` each episode's trajectory, commands and planner events
+(stall restarts, push plans) go to ``traces/TASK_SHAPE_SEED.npz`` beside them, for a look at a failure that
+the arm will not repeat. Needs ``pip install 'dexpush[franka]'``; run it alone (the
 real-time factor times the machine).
 """
 
@@ -131,6 +133,17 @@ def table(records: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def save_trace(path: Path, episode: object) -> None:
+    """One episode's true states, commands, λ_pred, planner events and goal, written atomically."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays = {"states": episode.states, "commands": episode.commands, "params": episode.params,
+              "goal": episode.goal, "obstacles": episode.obstacles}
+    if episode.events is not None:
+        arrays["events"] = episode.events
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        np.savez_compressed(fh, **arrays)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default="out/robot_sim", help="results folder (default out/robot_sim)")
@@ -152,6 +165,8 @@ def main() -> None:
                     help="with --without-arm: the planner behind the robot's frame guard and safety filter")
     ap.add_argument("--object-watch", action="store_true",
                     help="the filter with the object's watch, off by default (docs/robot.md#the-objects-clearance)")
+    ap.add_argument("--traces", action="store_true",
+                    help="save each episode's states, commands and planner events to OUT/traces/TASK_SHAPE_SEED.npz")
     ap.add_argument("--cutoff-frequency", type=float, default=DriverSettings().cutoff_frequency, metavar="HZ",
                     help="libfranka's low-pass on the velocity stream (Hz; 1000 turns it off; default "
                          f"{DriverSettings().cutoff_frequency:g})")
@@ -221,6 +236,8 @@ def main() -> None:
                        "workspace_margin": robot.workspace_margin,
                        "filtered": setup["filter"] == "on", "object_watch": setup["object watch"] == "on",
                        "wall_s": round(time.perf_counter() - t0, 1)}
+                if args.traces:
+                    save_trace(out / "traces" / f"{task.key}_{shape_name}_{seed}.npz", episode)
                 with open(path, "a") as fh:
                     fh.write(json.dumps(rec) + "\n")
                 records.append(rec)

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from dexpush.cli import main
@@ -31,6 +32,20 @@ def test_run_writes_files_and_prints_json_last(tmp_path: Path, capsys) -> None:
         assert (out / name).stat().st_size > 0, name
     assert json.loads((out / "summary.json").read_text())["seed"] == 2
     assert not list(out.glob(".*")), "temporary files left behind"
+
+
+def test_run_saves_where_the_planner_stalled_and_planned_a_push(tmp_path: Path, capsys) -> None:
+    """With a camera (the host loop) ``trajectory.npz`` holds, per step, the stall restarts and push plans so far:
+    non-decreasing, one row per command, ending at the summary's counts; the trajectory figure marks them."""
+    out = tmp_path / "run"
+    code = main(["run", "--task", "I", "--shape", "rect", "--seed", "0", "--max-steps", "40", "--stall-after", "0.2",
+                 "--camera", "realistic", "--no-animation", "--quiet", "--out", str(out)])
+    assert code == 1
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    events = np.load(out / "trajectory.npz")["events"]
+    assert events.shape == (summary["steps"], 2) and np.all(np.diff(events, axis=0) >= 0)
+    assert events[-1, 0] == summary["diagnostics"]["stall_resets"] >= 1
+    assert events[-1, 1] == summary["diagnostics"]["push_plans"]
 
 
 def test_push_candidates_reads_a_run_folder_and_says_what_both_searches_see(tmp_path: Path, capsys,

@@ -98,9 +98,12 @@ def _finish(fig: plt.Figure, ax: plt.Axes, title: str, path: str | os.PathLike |
 def plot_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.ndarray,
                  obstacles: np.ndarray | None = None, title: str = "", outlines: int = 12,
                  path: str | os.PathLike | None = None, polygons: tuple = (),
-                 workspace: np.ndarray | None = None, region: object = None) -> plt.Figure:
+                 workspace: np.ndarray | None = None, region: object = None,
+                 events: np.ndarray | None = None) -> plt.Figure:
     """Object outlines along the path, its reference path, the pusher path coloured by mode; the
-    obstacles (discs, ``polygons``), the ``workspace`` boundary and a goal ``region``'s lines."""
+    obstacles (discs, ``polygons``), the ``workspace`` boundary and a goal ``region``'s lines; with ``events``
+    ((T, 2) stall restarts and push plans so far after each step), where the object was at each stall
+    restart and where the pusher was when each push plan was chosen."""
     states = np.asarray(states)
     obstacles = np.zeros((0, 3)) if obstacles is None else np.asarray(obstacles).reshape(-1, 3)
     fig, ax = plt.subplots(figsize=(7, 5.5))
@@ -119,6 +122,13 @@ def plot_episode(shape: Shape, states: np.ndarray, modes: np.ndarray, goal: np.n
             if np.any(np.asarray(modes) == MODE_NAMES.index(name)):
                 ax.plot([], [], color=c, lw=2, label=f"pusher: {name}")
     ax.plot(*states[-1, 3:], "o", color="c", ms=6, mec="k")
+    if events is not None and len(events):
+        grew = np.diff(np.asarray(events), axis=0, prepend=0) > 0      # the steps at which each count rose
+        for col, xy, style, label in ((0, slice(0, 2), dict(marker="x", color="#d62728", ms=8, mew=2), "stall restart"),
+                                      (1, slice(3, 5), dict(marker="^", color="#9467bd", ms=7, mec="k"), "push plan")):
+            at = np.flatnonzero(grew[:, col]) + 1                        # the state after that step's command
+            if len(at):
+                ax.plot(*states[at, xy].T, ls="none", label=f"{label} ({len(at)})", **style)
     return _finish(fig, ax, title, path, dpi=130)
 
 

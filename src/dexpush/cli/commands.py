@@ -41,7 +41,7 @@ def _episode_files(episode, shape, out: Path, animation: bool, control_period: f
     files = {"trajectory": str(out / "trajectory.png"), "summary": str(out / "summary.json")}
     regions = {"polygons": episode.polygons, "workspace": episode.workspace, "region": episode.region}
     fig = plot_episode(shape, episode.states, episode.modes, episode.goal, episode.obstacles, title=title,
-                       path=files["trajectory"], **regions)
+                       path=files["trajectory"], events=episode.events, **regions)
     plt.close(fig)
     if get_method(rec.method).estimates:
         files["params"] = str(out / "params.png")
@@ -56,7 +56,8 @@ def _episode_files(episode, shape, out: Path, animation: bool, control_period: f
     with atomic_path(files["trajectory_data"]) as tmp, open(tmp, "wb") as fh:
         np.savez_compressed(fh, states=episode.states, modes=episode.modes, commands=episode.commands,
                             planning_ms=episode.planning_ms, params=episode.params, goal=episode.goal,
-                            obstacles=episode.obstacles)
+                            obstacles=episode.obstacles,
+                            **({} if episode.events is None else {"events": episode.events}))
     write_json_atomic(files["summary"], episode.summary())
     return files
 

@@ -94,6 +94,9 @@ class Episode:
     workspace: np.ndarray | None = None      #: the workspace's corners, or None
     #: a goal region's rows (:class:`dexpush.problem.goal_region.RegionRows`), or None for a goal pose
     region: object = None
+    #: (T, 2) the planner's stall restarts and push plans so far after each step, or None
+    #: (:attr:`dexpush.experiments.simulate.TrialResult.events`)
+    events: np.ndarray | None = None
 
     def summary(self) -> dict:
         return asdict(self.record)
@@ -154,7 +157,8 @@ def make_episode(problem: Problem, condition: Condition, result: TrialResult, la
         else None)
     return Episode(record, X, modes, U, result.step_ms, result.params, np.asarray(problem.goal),
                    np.asarray(problem.obstacles).reshape(-1, 3), tuple(np.asarray(p) for p in problem.polygons),
-                   None if problem.workspace is None else np.asarray(problem.workspace), problem.region_rows)
+                   None if problem.workspace is None else np.asarray(problem.workspace), problem.region_rows,
+                   result.events)
 
 
 def summarize(trials: list[dict]) -> dict:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -98,7 +99,8 @@ def run_loop(plant: Plant, controller: Controller, problem: Problem, *args: obje
     frame_period = 1.0 / sensor.rate_hz if sensor.rate_hz else control_period
     controller.reset(frame.object_pose, frame.pusher_xy)     # slow preparation happens before the clock
     x = camera.state                                          # the true state, checked once per step
-    states, commands, lam, ms = [x], [], [], []
+    states, commands, lam, ms, events = [x], [], [], [], []
+    counts = planner_counts(controller)
     success = bool(problem.success(x[:3]))
     bar = progress_bar(max_steps, desc, "step", progress)
     while not success and len(commands) < max_steps and not getattr(controller, "gave_up", False):
@@ -106,6 +108,8 @@ def run_loop(plant: Plant, controller: Controller, problem: Problem, *args: obje
         u = np.asarray(controller.act(frame, frame_period), dtype=np.float64)
         ms.append((time.perf_counter() - t0) * 1e3)
         lam.append(np.asarray(getattr(controller, "params", np.full(3, np.nan)), dtype=np.float64))
+        if counts is not None:
+            events.append(counts())
         frame = camera.step(u, control_period)
         x = camera.state
         commands.append(u)
@@ -122,7 +126,16 @@ def run_loop(plant: Plant, controller: Controller, problem: Problem, *args: obje
                        *(getattr(controller, name, None) for name in ESTIMATOR_COUNTERS),
                        stall_resets=getattr(controller, "stall_resets", None),
                        push_plans=getattr(controller, "push_plans", None),
-                       frames=None if sensor.perfect else camera.counts())
+                       frames=None if sensor.perfect else camera.counts(),
+                       events=np.asarray(events, dtype=np.int32).reshape(-1, 2) if counts is not None else None)
+
+
+def planner_counts(controller: Controller) -> Callable[[], tuple[int, int]] | None:
+    """A reader of ``controller``'s stall restarts and push plans so far (0 for a count it keeps without a
+    plan, such as push plans switched off), or None for a controller that counts neither."""
+    if getattr(controller, "stall_resets", None) is None:
+        return None
+    return lambda: (int(controller.stall_resets), int(getattr(controller, "push_plans", None) or 0))
 
 
 def plant_name(plant: str | Plant) -> str:

@@ -84,6 +84,9 @@ class TrialResult:
     stall_resets: int | None = None       #: planner restarts after a stall (MPPI controllers)
     push_plans: int | None = None         #: pushes chosen after a stall (MPPI with ``push_plan.enabled``)
     frames: dict | None = None            #: what a camera did (:meth:`dexpush.world.sensing.Camera.counts`)
+    #: (T, 2) after each step, the planner's stall restarts and push plans so far (``run_loop`` with a controller
+    #: that counts them; None from the batched simulator): where a trajectory's stalls and plans fall
+    events: np.ndarray | None = None
 
     @property
     def steps(self) -> int:
