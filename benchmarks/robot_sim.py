@@ -38,6 +38,7 @@ import numpy as np
 from dexpush.cli.config import default_config
 from dexpush.cli.flags import add_planner_flags, planner_overrides
 from dexpush.common.files import atomic_path
+from dexpush.experiments.records import Episode
 from dexpush.experiments.registry import make_shape
 from dexpush.experiments.robot_trial import RobotSettings, run_arm_problem, run_robot_episode
 from dexpush.experiments.scenarios import MAX_STEPS, get_task
@@ -133,15 +134,11 @@ def table(records: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def save_trace(path: Path, episode: object) -> None:
-    """One episode's true states, commands, λ_pred, planner events and goal, written atomically."""
+def save_trace(path: Path, episode: Episode) -> None:
+    """One episode's ``trajectory.npz`` (:meth:`dexpush.experiments.records.Episode.arrays`), written atomically."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    arrays = {"states": episode.states, "commands": episode.commands, "params": episode.params,
-              "goal": episode.goal, "obstacles": episode.obstacles}
-    if episode.events is not None:
-        arrays["events"] = episode.events
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        np.savez_compressed(fh, **arrays)
+        np.savez_compressed(fh, **episode.arrays())
 
 
 def main() -> None:

@@ -54,10 +54,7 @@ def _episode_files(episode, shape, out: Path, animation: bool, control_period: f
                                              speedup=speedup, title=title, **regions)
     files["trajectory_data"] = str(out / "trajectory.npz")
     with atomic_path(files["trajectory_data"]) as tmp, open(tmp, "wb") as fh:
-        np.savez_compressed(fh, states=episode.states, modes=episode.modes, commands=episode.commands,
-                            planning_ms=episode.planning_ms, params=episode.params, goal=episode.goal,
-                            obstacles=episode.obstacles,
-                            **({} if episode.events is None else {"events": episode.events}))
+        np.savez_compressed(fh, **episode.arrays())
     write_json_atomic(files["summary"], episode.summary())
     return files
 

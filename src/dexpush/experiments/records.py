@@ -101,6 +101,14 @@ class Episode:
     def summary(self) -> dict:
         return asdict(self.record)
 
+    def arrays(self) -> dict[str, np.ndarray]:
+        """What ``trajectory.npz`` holds: the states, contact modes, commands, planning times, λ_pred, goal, disc
+        obstacles and, when kept, the planner's ``events``."""
+        arrays = {"states": self.states, "modes": self.modes, "commands": self.commands,
+                  "planning_ms": self.planning_ms, "params": self.params, "goal": self.goal,
+                  "obstacles": self.obstacles}
+        return arrays if self.events is None else {**arrays, "events": self.events}
+
 
 def _path_length(xy: np.ndarray) -> float:
     return float(np.sum(np.linalg.norm(np.diff(xy, axis=0), axis=-1)))
