@@ -25,7 +25,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples
-	$(BIN)/python -m pytest -q -m "not slow and not franka and not ros and not cluster" -n 2
+	$(BIN)/python -m pytest -q -m "not slow and not franka and not ros and not cluster" -n 2 --durations=15
 
 $(FRANKA): $(STAMP)
 	$(BIN)/pip install --quiet -e ".[dev,camera,franka]"
