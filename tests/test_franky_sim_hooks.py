@@ -33,6 +33,7 @@ def test_a_step_is_a_jerk_over_the_limit_and_a_gap_starts_a_new_motion() -> None
         checks.command("cartesian_velocity", _twist(v), (1 + k) * 1e-3)
     assert np.isclose(checks.max_a, 10.0) and np.isclose(checks.max_j, 10.0 / 1e-3)
     assert checks.over == 1                                         # the jerk; 10 m/s² is within 13
+    assert checks.max_j_at == 4e-3                                  # at the step's command
     checks.command("cartesian_velocity", _twist(0.5), 1.0)          # 1 s later: a new motion
     assert checks.a is None
     checks.command("cartesian_velocity", _twist(0.5), 1.003)        # two ticks missed

@@ -479,6 +479,9 @@ def robot_report(episode: Episode, plant: RobotPlant, guarded: GuardedController
            "workspace_overshoot_mm": round(max(float(beyond.max()), 0.0) * 1e3, 3),
            "speed_limit_exceeded": int(np.sum(speed > safety.v_max + 1e-9)),
            "driver_retries": getattr(plant.driver, "retries", 0)}
+    if out["driver_retries"]:     # what the robot said and when (its clock), to set beside the stream's maxima
+        out["driver_retry_s"] = [round(float(t), 3) for t in getattr(plant.driver, "retry_times", [])]
+        out["driver_errors"] = sorted({str(e)[:160] for e in getattr(plant.driver, "errors", [])})[:3]
     if guarded is not None:
         out.update({"filtered": guarded.filtered, "relaxed": guarded.relaxed, "stopped": guarded.stopped,
                     "blind_steps": guarded.blind, "frames_held": guarded.guard.held if guarded.guard else 0,
@@ -486,7 +489,8 @@ def robot_report(episode: Episode, plant: RobotPlant, guarded: GuardedController
     if world is not None:
         r = world.report()
         out.update({"reflex_limit_steps": r.over_limits, "max_commanded_acceleration": round(r.max_acceleration, 3),
-                    "max_commanded_jerk": round(r.max_jerk, 1), "joint_limit_steps": r.joint_limit_steps,
+                    "max_commanded_jerk": round(r.max_jerk, 1), "max_commanded_jerk_at_s": round(r.max_jerk_at_s, 3),
+                    "joint_limit_steps": r.joint_limit_steps,
                     "missed_commands": r.missed_commands, "real_time_factor": round(r.real_time_factor, 3),
                     "sim_s": round(r.sim_s, 3)})
     return out

@@ -40,7 +40,8 @@ FINGERTIP_M = 0.0080
 # shared-memory layout (float64)
 _TIME, _POSE, _TIP, _ACC, _JERK, _OVER, _JOINTS, _STEPS, _BUSY, _WALL, _MISSED = 0, 1, 4, 7, 8, 9, 10, 11, 12, 13, 14
 _VEL = 15         # the object's velocity (x, y, base frame)
-_SIZE = 17
+_JERK_AT = 17     # the command clock (s) of the largest commanded jerk
+_SIZE = 18
 #: the most generalised coordinates the scene may have (the whole qpos is shared, for a camera that renders it)
 _QPOS_MAX = 256
 
@@ -85,7 +86,8 @@ class SimReport:
     in a motion that brought no new command from the client (a real Franka tolerates a few: libfranka's
     ``communication_constraints_violation`` ends a motion after too many); the maxima; the simulated
     seconds, the real-time factor (simulated over wall seconds) and the stepping capacity (simulated
-    seconds over the wall seconds spent stepping: the factor it could reach unpaced)."""
+    seconds over the wall seconds spent stepping: the factor it could reach unpaced); ``max_jerk_at_s``: when the
+    largest jerk was commanded, on the robot's clock (the client's ``time()``, 1 ms a state since it connected)."""
 
     sim_s: float
     max_acceleration: float
@@ -95,6 +97,7 @@ class SimReport:
     missed_commands: int
     real_time_factor: float
     step_capacity: float
+    max_jerk_at_s: float = 0.0
 
 
 def _world_xml(shape: Shape, physics: PhysicsSettings, obstacles: np.ndarray,
@@ -232,7 +235,7 @@ class FrankaSim:
         return SimReport(float(s[_TIME]), float(s[_ACC]), float(s[_JERK]), int(s[_OVER]), int(s[_JOINTS]),
                          int(s[_MISSED]),
                          float(sim_s / s[_WALL]) if s[_WALL] > 0 else 0.0,
-                         float(sim_s / s[_BUSY]) if s[_BUSY] > 0 else 0.0)
+                         float(sim_s / s[_BUSY]) if s[_BUSY] > 0 else 0.0, float(s[_JERK_AT]))
 
     def close(self) -> None:
         if self._proc.is_alive():
@@ -347,7 +350,7 @@ def _serve(xml: str, rho: float, frames: DriverSettings, hosts: tuple[str, ...],
         shared[_POSE:_POSE + 3] = [xy[0], xy[1], wrap_angle(th)]
         shared[_TIP:_TIP + 3] = [*frames.to_table(tip[:2]), tip[2]]
         shared[_TIME] = data.time
-        shared[_ACC], shared[_JERK] = checks.max_a, checks.max_j
+        shared[_ACC], shared[_JERK], shared[_JERK_AT] = checks.max_a, checks.max_j, checks.max_j_at
         shared[_OVER], shared[_MISSED] = checks.over, checks.missed
         shared[_VEL:_VEL + 2] = data.qvel[dadr:dadr + 2]
         if nq:

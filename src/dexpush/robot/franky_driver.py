@@ -71,6 +71,7 @@ class FrankyDriver:
         self.robot.relative_dynamics_factor = self.settings.dynamics_factor
         self.sent = 0
         self.retries = 0
+        self.retry_times: list[float] = []    #: the robot's clock (s) at each retry
         self.stops = 0
         self.errors: list[str] = []
 
@@ -109,6 +110,10 @@ class FrankyDriver:
         except Exception as exc:
             self.errors.append(f"{type(exc).__name__}: {exc}")
             self.retries += 1
+            try:
+                self.retry_times.append(self.time())
+            except RobotError:
+                self.retry_times.append(float("nan"))
             if self.robot.has_errors:
                 self.robot.recover_from_errors()
             self.robot.move(make(), asynchronous=asynchronous, **options)

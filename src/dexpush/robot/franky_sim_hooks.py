@@ -21,12 +21,13 @@ _GAP_S = 0.005
 class Checks:
     """The commanded tip motion against :data:`FRANKA_LIMITS`, from each command of the client's 1 kHz
     stream (a millisecond without one is counted in ``missed``; the next difference spans the gap); ``a`` is the
-    last commanded acceleration (m/s², base frame; None at a motion's start)."""
+    last commanded acceleration (m/s², base frame; None at a motion's start); ``max_j_at`` the command clock (s)
+    of the largest jerk."""
 
     def __init__(self) -> None:
         self.v = self.a = self.mode = None
         self.t = 0.0
-        self.max_a = self.max_j = 0.0
+        self.max_a = self.max_j = self.max_j_at = 0.0
         self.over = self.missed = 0
 
     def command(self, mode: str, v: np.ndarray, t: float) -> None:
@@ -39,7 +40,8 @@ class Checks:
             a = (v - self.v) / dt
             if self.a is not None:
                 j = float(np.linalg.norm(a - self.a)) / dt
-                self.max_j = max(self.max_j, j)
+                if j > self.max_j:
+                    self.max_j, self.max_j_at = j, t
                 self.over += j > FRANKA_LIMITS["jerk"]
             na = float(np.linalg.norm(a))
             self.max_a = max(self.max_a, na)
