@@ -73,7 +73,7 @@ def setup_of(record: dict) -> dict:
     before docs/robot.md#the-objects-clearance, the filter had no object watch; before
     docs/robot.md#libfrankas-filter, the arm's stream went through libfranka's 100-Hz low-pass; without the arm
     there is no stream to filter; before docs/workspaces.md#the-endgame-push-2026-12-07 there was no endgame
-    push; before docs/robot.md#the-slow-zone there was no slow zone)."""
+    push)."""
     filtered = record.get("filtered", record["plant"] != "physics")
     annulus = "bent_way_room_m" in record or "bent_way_room_m" in record.get("robot", {})
     return {"plant": record["plant"], "filter": "on" if filtered else "off",
@@ -81,8 +81,7 @@ def setup_of(record: dict) -> dict:
             "band": "annulus" if annulus else "chord", "area margin": record.get("workspace_margin", 0.25),
             "object watch": "on" if record.get("object_watch", False) else "off",
             "libfranka cutoff": None if record["plant"] == "physics" else record.get("cutoff_frequency", 100.0),
-            "endgame push": "on" if record.get("endgame_push", False) else "off",
-            "slow zone": record.get("slow_zone_m")}
+            "endgame push": "on" if record.get("endgame_push", False) else "off"}
 
 
 def row(records: list[dict]) -> dict:
@@ -163,9 +162,6 @@ def main() -> None:
                     help="with --without-arm: the planner behind the robot's frame guard and safety filter")
     ap.add_argument("--object-watch", action="store_true",
                     help="the filter with the object's watch, off by default (docs/robot.md#the-objects-clearance)")
-    ap.add_argument("--slow-zone", type=float, default=None, metavar="M",
-                    help="the filter slows the pusher on an object within M metres of an obstacle (the object "
-                         "watch's slow zone, docs/robot.md#the-slow-zone; off by default)")
     ap.add_argument("--traces", action="store_true",
                     help="save each episode's states, commands and planner events to OUT/traces/TASK_SHAPE_SEED.npz")
     ap.add_argument("--cutoff-frequency", type=float, default=DriverSettings().cutoff_frequency, metavar="HZ",
@@ -180,13 +176,10 @@ def main() -> None:
     records = [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
     if args.with_filter and not args.without_arm:
         raise SystemExit("error: --with-filter goes with --without-arm (on the robot the filter is always on)")
-    for flag, given in (("--object-watch", args.object_watch), ("--slow-zone", args.slow_zone is not None)):
-        if given and args.without_arm and not args.with_filter:
-            raise SystemExit(f"error: {flag} is the filter's: with --without-arm give --with-filter too")
+    if args.object_watch and args.without_arm and not args.with_filter:
+        raise SystemExit("error: --object-watch is the filter's: with --without-arm give --with-filter too")
+    robot = RobotSettings(object_watch=ObjectWatchSettings()) if args.object_watch else RobotSettings()
     try:
-        watch = (ObjectWatchSettings(learn=args.object_watch, slow_m=args.slow_zone)
-                 if args.object_watch or args.slow_zone is not None else None)
-        robot = RobotSettings(object_watch=watch)
         driver = dataclasses.replace(robot.driver, cutoff_frequency=args.cutoff_frequency,
                                      **({} if args.reach is None else {"reach": args.reach}))
     except ValueError as exc:
@@ -197,9 +190,7 @@ def main() -> None:
              "band": "annulus", "area margin": robot.workspace_margin,
              "libfranka cutoff": None if args.without_arm else robot.driver.cutoff_frequency,
              "endgame push": "on" if settings.push_plan.enabled and settings.push_plan.endgame.enabled else "off"}
-    watched = setup["filter"] == "on" and robot.object_watch is not None
-    setup["object watch"] = "on" if watched and robot.object_watch.learn else "off"
-    setup["slow zone"] = robot.object_watch.slow_m if watched else None
+    setup["object watch"] = "on" if setup["filter"] == "on" and robot.object_watch is not None else "off"
     other = sorted({k for r in records for k, v in setup_of(r).items() if v != setup[k]})
     if other:
         raise SystemExit(f"error: {path} holds episodes with another {' and '.join(other)} than this run's "
@@ -241,7 +232,6 @@ def main() -> None:
                        "reach": list(robot.driver.reach), "cutoff_frequency": setup["libfranka cutoff"],
                        "workspace_margin": robot.workspace_margin,
                        "filtered": setup["filter"] == "on", "object_watch": setup["object watch"] == "on",
-                       "slow_zone_m": setup["slow zone"],
                        "wall_s": round(time.perf_counter() - t0, 1)}
                 if args.traces:
                     save_trace(out / "traces" / f"{task.key}_{shape_name}_{seed}.npz", episode)

@@ -498,17 +498,6 @@ def test_the_robot_benchmarks_object_watch_needs_the_filter_and_a_folder_of_its_
     monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--object-watch"])
     with pytest.raises(SystemExit, match=r"holds episodes with another object watch than this run's"):
         robot_sim.main()
-    # the slow zone is the watch's too; records before it hold no key for it: they ran without one
-    monkeypatch.setattr(sys, "argv", [*argv, "--slow-zone", "0.015"])
-    with pytest.raises(SystemExit, match=r"^error: --slow-zone is the filter's: with --without-arm give --with"):
-        robot_sim.main()
-    monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--slow-zone", "0.001"])
-    with pytest.raises(SystemExit, match=r"^error: slow_m must be above keep_m"):
-        robot_sim.main()
-    assert robot_sim.setup_of(record)["slow zone"] is None
-    monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--slow-zone", "0.015"])
-    with pytest.raises(SystemExit, match=r"holds episodes with another slow zone than this run's \(slow zone 0.015\)"):
-        robot_sim.main()
 
 
 def test_the_repeat_comparison_names_the_seeds_that_change_outcome_and_how_far_the_time_moves(tmp_path) -> None:

@@ -16,7 +16,7 @@ from dexpush.common.interfaces import Controller, Observation
 from dexpush.common.se2 import wrap_angle
 from dexpush.problem.regions import convex_polygon
 from dexpush.robot.object_watch import ObjectWatch
-from dexpush.robot.safety import SafetySettings, barrier_rate, filter_velocity, shortened, speed_rows
+from dexpush.robot.safety import SafetySettings, barrier_rate, filter_velocity
 
 __all__ = ["FrameGuard", "GuardedController"]
 
@@ -81,8 +81,7 @@ class GuardedController:
         frame_timeout_s: with no frame for this long (s) the command is zero until frames return
             (the robot brakes within its own limits; the planner keeps predicting).
         watch: an :class:`dexpush.robot.object_watch.ObjectWatch` that slows the pusher when the accepted frames
-            show the object closing on an obstacle, or near one (its slow zone) (None: the filter guards the
-            pusher only). It reads the frames'
+            show the object closing on an obstacle (None: the filter guards the pusher only). It reads the frames'
             times on the plant's clock, which starts at the first period (``Observation.time``), and stamps the
             k-th command (k − 1)·T.
 
@@ -129,15 +128,6 @@ class GuardedController:
         if self.guard is not None and object_pose is not None and pusher_xy is not None:
             self.guard(Observation(np.asarray(object_pose, float), np.asarray(pusher_xy, float), 0.0))
 
-    def _object_rows(self, p: np.ndarray, now: float) -> tuple[tuple[tuple[str, np.ndarray, np.ndarray], ...], float]:
-        """The watch's groups for the filter, its learnt barrier ("object") and its slow zone ("slow zone": the
-        speed rows of a lower limit, present only where it is below the filter's), and the slow zone's limit
-        (m/s), to which the planner's command is first shortened."""
-        rows = (("object", *self.watch.rows(p, self.control_period, barrier_rate(self.control_period, self.safety),
-                                            now=now)),)
-        limit = self.watch.speed_limit(p, self.safety.v_max, now=now)
-        return rows + ((("slow zone", *speed_rows(limit)),) if limit < self.safety.v_max else ()), limit
-
     def hold(self) -> None:
         """The robot was sent zero outside :meth:`act` (a caller's stop): the filter's previous command is zero."""
         self._v = np.zeros(2)
@@ -165,16 +155,15 @@ class GuardedController:
         else:
             u = u if np.all(np.isfinite(u)) else np.zeros(2)       # a non-finite request is a request to stop
             p = np.asarray(p, dtype=np.float64).reshape(2)
-            extra, slowed = (), False
-            if self.watch is not None:
-                extra, limit = self._object_rows(p, now)
-                slow = shortened(u, limit)                        # the slow zone: shorter, as aimed
-                slowed, u = bool(np.any(slow != u)), slow
+            extra = () if self.watch is None else (
+                ("object", *self.watch.rows(p, self.control_period,
+                                            barrier_rate(self.control_period, self.safety), now=now)),)
             result = filter_velocity(u.reshape(2), p, self._v, self.control_period, self.safety, self.obstacles,
                                      self.pusher_radius, self.polygons, extra)
-            self.filtered += result.changed or slowed
-            for name in (*(result.active if result.changed else ()), *(("slow zone",) if slowed else ())):
-                self.limited_by[name] = self.limited_by.get(name, 0) + 1
+            self.filtered += result.changed
+            if result.changed:
+                for name in result.active:
+                    self.limited_by[name] = self.limited_by.get(name, 0) + 1
             self.relaxed += result.relaxed not in ("", "all")
             self.stopped += result.relaxed == "all"
             self._v = result.velocity

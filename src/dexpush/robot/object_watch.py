@@ -28,16 +28,6 @@ the same discrete-time barrier as the pusher's keep-out rows (γ = T / braking_s
 more than γ (g − keep)/T, so it slows as it nears ``keep_m`` and never crosses it while the learnt rate holds.
 A push in a direction not yet seen to close the gap, or the pusher leaving, is not limited
 (docs/robot.md#the-objects-clearance).
-
-**The slow zone** (``slow_m``; off by default). While the pusher is within ``contact_m`` of the footprint and the
-object's least gap, carried to now, is g < ``slow_m``, the pusher's speed is limited to
-
-    v_cap(g) = v_slow + (v_max − v_slow) · clip((g − keep_m) / (slow_m − keep_m), 0, 1)          (slow zone)
-
-(v_slow = ``slow_speed_m_s``, v_max the filter's), the speed rows' 16-gon of that radius: the planner's command
-keeps its direction and is shortened. It bounds nothing the model predicts; it gives the planner more frames per
-millimetre the object moves where a wrong prediction would touch. The gap now is the newest frame's, less
-|v_last| times the frame's age (a pushed object's nearest point taken to move no faster than the pusher).
 """
 
 from __future__ import annotations
@@ -65,9 +55,6 @@ class ObjectWatchSettings:
     contact_m: float = 0.01      #: the pusher is pushing when its disc is within this of the footprint
     moving_m_s: float = 0.02     #: the rates are learnt from a window in which the pusher moved this fast (m/s)
     release: float = 0.3         #: a rate that says less closing than learnt moves J this fraction of the way
-    learn: bool = True           #: the learnt barrier rows (above)
-    slow_m: float | None = None  #: the slow zone: below this gap the pusher slows (m); None: no slow zone
-    slow_speed_m_s: float = 0.02  #: the slow zone's speed limit at ``keep_m`` (m/s)
 
     def __post_init__(self) -> None:
         for name, unit in (("watch_m", "m"), ("window_s", "s"), ("contact_m", "m"), ("moving_m_s", "m/s")):
@@ -77,11 +64,6 @@ class ObjectWatchSettings:
         check_nonnegative("keep_m", self.keep_m, "m")
         if self.keep_m >= self.watch_m:
             raise ValueError(f"keep_m must be below watch_m, got keep_m={self.keep_m:g}, watch_m={self.watch_m:g}")
-        check_positive("slow_speed_m_s", self.slow_speed_m_s, "m/s")
-        if self.slow_m is not None:
-            check_positive("slow_m", self.slow_m, "m, or None")
-            if self.slow_m <= self.keep_m:
-                raise ValueError(f"slow_m must be above keep_m, got slow_m={self.slow_m:g}, keep_m={self.keep_m:g}")
 
 
 def object_gaps(footprint: list[np.ndarray], obstacles: np.ndarray, polygons: tuple[np.ndarray, ...]) -> np.ndarray:
@@ -182,40 +164,20 @@ class ObjectWatch:
         along = np.array(held).reshape(-1, 2)
         return (out / total if total > 0 else out), lambda d: float((along @ d).min()) if len(along) else 0.0
 
-    def _pushing(self, pusher_xy: np.ndarray) -> bool:
-        """Whether the pusher is on the newest frame's footprint (within ``contact_m``)."""
-        if self._footprint is None or not self._frames:
-            return False
-        reach = distance_to_polygons(np.asarray(pusher_xy, dtype=np.float64), self._footprint)
-        return float(reach) <= self.shape.pusher_radius + self.settings.contact_m
-
-    def _age(self, now: float | None) -> float:
-        return 0.0 if now is None else float(np.clip(now - self._frames[-1][0], 0.0, self.settings.window_s))
-
-    def _last_command(self) -> np.ndarray:
-        return self._commands[-1][1] if self._commands else np.zeros(2)
-
     def rows(self, pusher_xy: np.ndarray, T: float, gamma: float,
              now: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The object barrier's rows A v ≤ b ((k, 2), (k,)) for the next command, sent at time ``now`` (s, the
         frames' clock; None: the newest frame's time) with the pusher at ``pusher_xy``; none while the pusher is
-        away from the footprint, or for an obstacle beyond ``watch_m`` or that no push has been seen to close,
-        or with ``learn`` off."""
+        away from the footprint, or for an obstacle beyond ``watch_m`` or that no push has been seen to close."""
         none = (np.zeros((0, 2)), np.zeros(0))
-        s = self.settings
-        if not s.learn or not self._pushing(pusher_xy):
+        if self._footprint is None or not self._frames:
             return none
-        g = self.gaps + np.minimum(self.J @ self._last_command(), 0.0) * self._age(now)   # the gap now
+        s = self.settings
+        reach = distance_to_polygons(np.asarray(pusher_xy, dtype=np.float64), self._footprint)
+        if float(reach) > self.shape.pusher_radius + s.contact_m:
+            return none
+        age = 0.0 if now is None else float(np.clip(now - self._frames[-1][0], 0.0, s.window_s))
+        v_last = self._commands[-1][1] if self._commands else np.zeros(2)
+        g = self.gaps + np.minimum(self.J @ v_last, 0.0) * age                # the gap now, carried over the age
         closing = (g < s.watch_m) & np.any(self.J != 0.0, axis=1)
         return -self.J[closing], gamma * (g[closing] - s.keep_m) / T           # −J·v ≤ γ (g − keep) / T
-
-    def speed_limit(self, pusher_xy: np.ndarray, v_max: float, now: float | None = None) -> float:
-        """The slow zone's speed limit v_cap (m/s, above) for the next command, sent at ``now`` with the pusher at
-        ``pusher_xy``; ``v_max`` where there is no slow zone, the pusher is away from the footprint or the object is
-        ``slow_m`` or more from every obstacle."""
-        s = self.settings
-        if s.slow_m is None or not len(self.gaps) or not self._pushing(pusher_xy):
-            return float(v_max)
-        g = float(self.gaps.min()) - float(np.linalg.norm(self._last_command())) * self._age(now)
-        fraction = float(np.clip((g - s.keep_m) / (s.slow_m - s.keep_m), 0.0, 1.0))
-        return min(float(v_max), s.slow_speed_m_s + (float(v_max) - s.slow_speed_m_s) * fraction)

@@ -40,8 +40,7 @@ import numpy as np
 from dexpush.common.checks import check_nonnegative, check_positive
 from dexpush.problem.regions import convex_polygon, nearest_on_outline, workspace_halfplanes
 
-__all__ = ["FilterResult", "SafetySettings", "barrier_rate", "filter_velocity", "safe_velocity", "shortened",
-           "speed_rows"]
+__all__ = ["FilterResult", "SafetySettings", "barrier_rate", "filter_velocity", "safe_velocity"]
 
 _SIDES = 16
 _COS = np.cos(np.pi / _SIDES)
@@ -111,22 +110,11 @@ def barrier_rate(T: float, s: SafetySettings) -> float:
     return min(1.0, T / s.braking_s)
 
 
-def speed_rows(limit: float) -> tuple[np.ndarray, np.ndarray]:
-    """The rows A v ≤ b of |v| ≤ ``limit`` (m/s): the regular 16-gon inscribed in that disc."""
-    return _NORMALS, np.full(_SIDES, float(limit) * _COS)
-
-
-def shortened(v: np.ndarray, limit: float) -> np.ndarray:
-    """``v`` as aimed, no longer than the speed rows of ``limit`` allow (their 16-gon's inscribed circle)."""
-    speed = float(np.linalg.norm(v))
-    return v * min(1.0, float(limit) * _COS / speed) if speed > 0 else v
-
-
 def _rows(p: np.ndarray, v_prev: np.ndarray, obstacles: np.ndarray, polygons: tuple[np.ndarray, ...], radius: float,
           T: float, s: SafetySettings) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """The constraint groups (name, A, b) of A v ≤ b."""
     gamma = barrier_rate(T, s)
-    groups = [("speed", *speed_rows(s.v_max)),
+    groups = [("speed", _NORMALS, np.full(_SIDES, s.v_max * _COS)),
               ("acceleration", _NORMALS, _NORMALS @ v_prev + s.a_max * T * _COS)]
     if s.workspace is not None:
         rows = s.workspace_rows
@@ -228,7 +216,8 @@ def filter_velocity(u: np.ndarray, p: np.ndarray, v_prev: np.ndarray, T: float, 
         v = _project(u, A, b)
         if v is not None:
             if relaxed == "acceleration+speed":      # never faster than the limit: shrink along the safe direction
-                v = shortened(v, settings.v_max)
+                speed = float(np.linalg.norm(v))
+                v = v * min(1.0, settings.v_max * _COS / speed) if speed > 0 else v
             active = tuple(n for n in names if np.any(np.abs(by_name[n][0] @ v - by_name[n][1]) <= 1e-9 + 1e-9
                                                       * np.abs(by_name[n][1])))
             return FilterResult(v, bool(np.any(v != u)), active, relaxed)
