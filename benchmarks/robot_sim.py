@@ -73,7 +73,7 @@ def setup_of(record: dict) -> dict:
     before docs/robot.md#the-objects-clearance, the filter had no object watch; before
     docs/robot.md#libfrankas-filter, the arm's stream went through libfranka's 100-Hz low-pass; without the arm
     there is no stream to filter; before docs/workspaces.md#the-endgame-push-2026-12-07 there was no endgame
-    push)."""
+    push; every record names its method, MPPI with the UKF unless ``--method`` said otherwise)."""
     filtered = record.get("filtered", record["plant"] != "physics")
     annulus = "bent_way_room_m" in record or "bent_way_room_m" in record.get("robot", {})
     return {"plant": record["plant"], "filter": "on" if filtered else "off",
@@ -81,7 +81,7 @@ def setup_of(record: dict) -> dict:
             "band": "annulus" if annulus else "chord", "area margin": record.get("workspace_margin", 0.25),
             "object watch": "on" if record.get("object_watch", False) else "off",
             "libfranka cutoff": None if record["plant"] == "physics" else record.get("cutoff_frequency", 100.0),
-            "endgame push": "on" if record.get("endgame_push", False) else "off"}
+            "endgame push": "on" if record.get("endgame_push", False) else "off", "method": record["method"]}
 
 
 def row(records: list[dict]) -> dict:
@@ -162,6 +162,9 @@ def main() -> None:
                     help="with --without-arm: the planner behind the robot's frame guard and safety filter")
     ap.add_argument("--object-watch", action="store_true",
                     help="the filter with the object's watch, off by default (docs/robot.md#the-objects-clearance)")
+    ap.add_argument("--method", choices=["mppi-ukf", "mppi"], default="mppi-ukf",
+                    help="MPPI with the UKF from λ_pred = [15, 0, 0] (default), or MPPI planning with that λ_pred "
+                         "throughout (no estimation)")
     ap.add_argument("--traces", action="store_true",
                     help="save each episode's states, commands and planner events to OUT/traces/TASK_SHAPE_SEED.npz")
     ap.add_argument("--cutoff-frequency", type=float, default=DriverSettings().cutoff_frequency, metavar="HZ",
@@ -189,7 +192,8 @@ def main() -> None:
              "filter": "on" if args.with_filter or not args.without_arm else "off", "reach": robot.driver.reach,
              "band": "annulus", "area margin": robot.workspace_margin,
              "libfranka cutoff": None if args.without_arm else robot.driver.cutoff_frequency,
-             "endgame push": "on" if settings.push_plan.enabled and settings.push_plan.endgame.enabled else "off"}
+             "endgame push": "on" if settings.push_plan.enabled and settings.push_plan.endgame.enabled else "off",
+             "method": args.method}
     setup["object watch"] = "on" if setup["filter"] == "on" and robot.object_watch is not None else "off"
     other = sorted({k for r in records for k, v in setup_of(r).items() if v != setup[k]})
     if other:
@@ -208,12 +212,12 @@ def main() -> None:
                     continue
                 t0 = time.perf_counter()
                 if args.without_arm:
-                    episode, side = run_arm_problem(task, shape, params="unknown", method="mppi-ukf", seed=seed,
+                    episode, side = run_arm_problem(task, shape, params="unknown", method=args.method, seed=seed,
                                                     sensor=sensor, robot=robot, settings=settings,
                                                     max_steps=args.max_steps, filtered=args.with_filter)
                 else:
                     try:
-                        episode, report = run_robot_episode(task, shape, params="unknown", method="mppi-ukf",
+                        episode, report = run_robot_episode(task, shape, params="unknown", method=args.method,
                                                             seed=seed, sensor=sensor, robot=robot, settings=settings,
                                                             max_steps=args.max_steps)
                     except StartError as exc:      # the arm never reached the start: nothing recorded; a re-run retries

@@ -466,7 +466,8 @@ def test_the_robot_benchmark_goes_on_past_an_episode_the_robot_cannot_start(tmp_
 
 def test_the_robot_benchmarks_object_watch_needs_the_filter_and_a_folder_of_its_own(tmp_path, monkeypatch) -> None:
     """``robot_sim.py --object-watch`` without the arm needs ``--with-filter`` (the watch is the filter's), and a
-    folder holding episodes without the watch refuses a run with it (docs/robot.md#the-objects-clearance)."""
+    folder holding episodes without the watch, or of another method, refuses a run with it
+    (docs/robot.md#the-objects-clearance)."""
     import importlib.util
     import json
     import sys
@@ -481,7 +482,7 @@ def test_the_robot_benchmarks_object_watch_needs_the_filter_and_a_folder_of_its_
         robot_sim.main()
     record = {"plant": "physics", "filtered": True, "reach": [0.36, 0.8], "bent_way_room_m": 0.01,
               "workspace_margin": 0.4, "object_watch": False, "endgame_push": True, "task": "III", "shape": "rect",
-              "seed": 0}
+              "seed": 0, "method": "mppi-ukf"}
     (tmp_path / "records.jsonl").write_text(json.dumps(record) + "\n")
     assert robot_sim.setup_of(record)["object watch"] == "off"
     assert robot_sim.setup_of({**record, "object_watch": True})["object watch"] == "on"
@@ -497,6 +498,9 @@ def test_the_robot_benchmarks_object_watch_needs_the_filter_and_a_folder_of_its_
         robot_sim.main()
     monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--object-watch"])
     with pytest.raises(SystemExit, match=r"holds episodes with another object watch than this run's"):
+        robot_sim.main()
+    monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--method", "mppi"])    # MPPI from the prior alone
+    with pytest.raises(SystemExit, match=r"holds episodes with another method than this run's \(method mppi\)"):
         robot_sim.main()
 
 
