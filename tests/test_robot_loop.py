@@ -545,3 +545,45 @@ def test_the_repeat_comparison_names_the_seeds_that_change_outcome_and_how_far_t
                              text=True, timeout=60)
         assert bad.returncode != 0 and "Traceback" not in bad.stderr
         assert "error: no" in bad.stderr.strip().splitlines()[-1]
+
+
+def test_the_trace_prediction_replays_the_commands_through_the_model(tmp_path, monkeypatch, capsys) -> None:
+    """``benchmarks/trace_prediction.py`` on a trace the model itself made: with the planner's λ the predicted gap
+    and heading are the true ones; with another λ they differ; bad inputs are one-line errors."""
+    import importlib.util
+    import sys
+
+    import jax.numpy as jnp
+
+    from dexpush.experiments.registry import make_shape
+    from dexpush.model.cgvmm import Contour, replay
+
+    shape = make_shape("rect")
+    x0 = np.array([0.0, 0.0, 0.0, -0.1 - shape.pusher_radius, 0.02])   # pushed off-centre: it turns
+    u = np.tile([0.05, 0.0], (12, 1))
+    lam = np.array([15.0, 0.0, 0.0])
+    states = np.concatenate([x0[None], np.asarray(replay(Contour.of(shape), jnp.asarray(x0, jnp.float32),
+                                                         jnp.asarray(u, jnp.float32), 0.04,
+                                                         jnp.asarray(lam, jnp.float32)))])
+    trace = tmp_path / "III_rect_7.npz"
+    np.savez(trace, states=states, commands=u, params=np.tile(lam, (12, 1)), obstacles=np.array([[0.2, 0.0, 0.05]]))
+    spec = importlib.util.spec_from_file_location("trace_prediction", Path(__file__).resolve().parents[1]
+                                                  / "benchmarks" / "trace_prediction.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    monkeypatch.setattr(sys, "argv", ["trace_prediction.py", str(trace), "--from", "2", "--steps", "5",
+                                      "--params", "40,0,0.03"])
+    script.main()
+    rows = [line.split(" | ") for line in capsys.readouterr().out.splitlines()[2:]]
+    assert [r[0] for r in rows] == ["3", "4", "5", "6", "7"]
+    assert all(abs(float(r[1]) - float(r[2])) < 0.02 and abs(float(r[4]) - float(r[5])) < 0.05 for r in rows)
+    assert abs(float(rows[-1][5]) - float(rows[-1][6])) > 0.5          # another λ turns it otherwise
+    for argv, message in ((["--from", "12"], "--from must be a step in 0..11"),
+                          (["--from", "0", "--params", "1,2"], "expected λ as 3 comma-separated numbers")):
+        monkeypatch.setattr(sys, "argv", ["trace_prediction.py", str(trace), *argv])
+        with pytest.raises(SystemExit, match=message if "--from" in message else None):
+            script.main()
+    (tmp_path / "bad.npz").write_text("no")
+    monkeypatch.setattr(sys, "argv", ["trace_prediction.py", str(tmp_path / "bad.npz"), "--from", "0"])
+    with pytest.raises(SystemExit, match="not an episode's arrays"):
+        script.main()
