@@ -233,6 +233,7 @@ def main() -> None:
                        "spread_cap": settings.mppi.spread_cap, "guidance_turn_m": settings.weights.guidance_turn_m,
                        "guidance_goal_heading": settings.weights.guidance_goal_heading,
                        "push_plan": settings.push_plan.enabled, "endgame_push": setup["endgame push"] == "on",
+                       "obstacles_under_start": settings.obstacles_under_start,
                        "reach": list(robot.driver.reach), "cutoff_frequency": setup["libfranka cutoff"],
                        "workspace_margin": robot.workspace_margin,
                        "filtered": setup["filter"] == "on", "object_watch": setup["object watch"] == "on",

@@ -402,6 +402,25 @@ def test_the_plan_margin_grows_by_the_allowance_and_never_beyond_the_start_clear
         assert float(plan_margin(x, scene, w, extra).margin) == pytest.approx(want, abs=1e-6)
 
 
+def test_with_a_second_models_states_the_obstacle_cost_is_the_larger() -> None:
+    """``running_cost(x, scene, w, other)``: the goal terms of x, the obstacle cost of whichever of x and ``other``
+    is the nearer the disc; without obstacles ``other`` changes nothing."""
+    from dexpush.problem.cost import obstacle_cost, running_cost
+
+    shape, w = Shape.rectangle(), CostWeights()
+    scene = Scene.make(shape, (0.6, 0, 0), ((0.30, 0.0, 0.05),), w)
+    face = 0.30 - 0.10 - 0.05
+    far = jnp.asarray([face - 0.05, 0.0, 0.0, face - 0.05 - 0.2 - 0.01, 0.0], jnp.float32)    # 5 cm out
+    near = far.at[0].add(0.046)                                                               # 4 mm out
+    assert float(obstacle_cost(near, scene, w)) > 0 == float(obstacle_cost(far, scene, w))
+    base = float(running_cost(far, scene, w))
+    assert float(running_cost(far, scene, w, far)) == pytest.approx(base)
+    assert float(running_cost(far, scene, w, near)) == pytest.approx(base + float(obstacle_cost(near, scene, w)))
+    assert float(running_cost(near, scene, w, far)) == pytest.approx(float(running_cost(near, scene, w)))
+    free = Scene.make(shape, (0.6, 0, 0), (), w)
+    assert float(running_cost(far, free, w, near)) == pytest.approx(float(running_cost(far, free, w)))
+
+
 @functools.cache
 def _tee() -> Shape:
     return Shape.tee()

@@ -48,6 +48,7 @@ _PLANNER = {
     "--prediction-margin": ("prediction_margin", ("prediction_margin", "gain")),
     "--stall-horizon": ("stall_horizon", ("stall", "horizon_scale")),
     "--samples": ("samples", ("mppi", "num_samples")),
+    "--obstacles-under-start": ("obstacles_under_start", ("obstacles_under_start",)),
 }
 
 
@@ -119,6 +120,10 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--samples", type=positive_int, default=None, metavar="K",
                    help="MPPI's sampled input sequences per iteration (mppi.num_samples; "
                         "docs/performance.md#samples-against-success-a-pareto-table; default: 1024)")
+    g.add_argument("--obstacles-under-start", action=argparse.BooleanOptionalAction, default=None,
+                   help="with the UKF, charge each sample the larger of its obstacle costs under the estimate and "
+                        "under λ_pred's start (obstacles_under_start; docs/robot.md#where-the-boxs-touches-come-from-"
+                        "2026-12-07-late-night; default: off)")
     g.add_argument("--prediction-margin", type=nonnegative_float, default=None, metavar="GAIN",
                    help="the obstacle margin grows by GAIN times how far the object was predicted on from "
                         "the newest camera frame, up to 2 cm more; 0 keeps it fixed (prediction_margin.gain; "

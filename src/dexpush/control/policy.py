@@ -57,6 +57,7 @@ class ControllerState(NamedTuple):
     streak: jnp.ndarray          #: restarts since the last progress (the clock's backoff exponent)
     stretch: jnp.ndarray         #: the horizon's current scale: 1, or ``stall.horizon_scale`` after a stall
     push: PushPlan               #: the push being carried out after a stall (``ControllerSettings.push_plan``)
+    start: jnp.ndarray           #: (3,) λ_pred at the start (``ControllerSettings.obstacles_under_start``)
 
 
 def policy_init(params: object, settings: ControllerSettings, seed: int | jnp.ndarray,
@@ -68,7 +69,7 @@ def policy_init(params: object, settings: ControllerSettings, seed: int | jnp.nd
     return ControllerState(jnp.zeros((settings.mppi.horizon, 2), jnp.float32), jax.random.PRNGKey(seed), lam,
                            estimator_init(lam, settings.ukf, box, settings.mu), jnp.float32(settings.mu),
                            jnp.float32(jnp.inf), jnp.float32(0.0), jnp.int32(0), jnp.int32(0),
-                           jnp.float32(1.0), push_plan_init())
+                           jnp.float32(1.0), push_plan_init(), lam)
 
 
 def estimate_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.ndarray | bool, *,
@@ -207,11 +208,33 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
                          settings.prediction_margin.max_m) if settings.prediction_margin.gain else 0.0)
     plan_scene = plan_margin(x, scene, weights, extra)     # from inside the margin: no nearer than now
     durations = slot_durations(mp, stretch)
+    x0 = tuple(x[i] for i in range(5))                       # rollouts carry a tuple
+    if settings.obstacles_under_start and settings.estimate_params and scene.has_obstacles:
+        # each sample rolled out under the estimate and under the start: its obstacle cost is the larger
+        x0, params = (x0, x0), (state.params, state.start)
+
+        def dynamics(xs, u, dt, p):
+            return step(contour, xs[0], u, dt, p[0], mu), step(contour, xs[1], u, dt, p[1], mu)
+
+        def running(xs, sc):
+            return running_cost(xs[0], sc, weights, xs[1])
+
+        def terminal(xs, sc):
+            return terminal_cost(xs[0], sc, weights)
+    else:
+        params = state.params
+
+        def dynamics(xs, u, dt, p):
+            return step(contour, xs, u, dt, p, mu)
+
+        def running(xs, sc):
+            return running_cost(xs, sc, weights)
+
+        def terminal(xs, sc):
+            return terminal_cost(xs, sc, weights)
     result = mppi_iteration(
-        sub, state.sequence, tuple(x[i] for i in range(5)), state.params, plan_scene,   # rollouts carry a tuple
-        dynamics=lambda xs, u, dt, p: step(contour, xs, u, dt, p, mu),
-        running_cost=lambda xs, sc: running_cost(xs, sc, weights),
-        terminal_cost=lambda xs, sc: terminal_cost(xs, sc, weights), horizon_scale=stretch,
+        sub, state.sequence, x0, params, plan_scene, dynamics=dynamics, running_cost=running,
+        terminal_cost=terminal, horizon_scale=stretch,
         settings=mp if scene.has_obstacles else replace(mp, spread_cap=None),   # no penalty to cap or check
         temperature=_temperature(x, scene, settings), rate_independent=True,   # quasi-static: see mppi_iteration
         proposals=contact_proposals(x, contour, durations, settings.proposals.count,

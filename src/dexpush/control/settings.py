@@ -130,6 +130,9 @@ class ControllerSettings:
     weights: CostWeights = field(default_factory=CostWeights)
     mu: float = MU_C              #: pusher–object friction μ_c assumed by the model
     estimate_params: bool = False #: run the UKF (paper Fig. 5) and plan with its estimate
+    #: with the UKF: charge each sample the larger of its obstacle costs under the estimate and under λ_pred's start
+    #: (a second rollout per sample where the problem has obstacles; docs/robot.md#where-the-boxs-touches-come-from)
+    obstacles_under_start: bool = False
     ukf: UKFSettings = field(default_factory=UKFSettings)
     ukf_substeps: int = 10        #: Euler substeps per period in the UKF's window replay
     stall: StallSettings = field(default_factory=StallSettings)
@@ -145,8 +148,9 @@ class ControllerSettings:
             if not isinstance(getattr(self, name), kind):
                 raise ValueError(f"{name} must be a {kind.__name__}, got {getattr(self, name)!r}")
         check_positive("mu", self.mu, "pusher–object friction coefficient")
-        if not isinstance(self.estimate_params, bool | np.bool_):
-            raise ValueError(f"estimate_params must be True or False, got {self.estimate_params!r}")
+        for name in ("estimate_params", "obstacles_under_start"):
+            if not isinstance(getattr(self, name), bool | np.bool_):
+                raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
         check_whole("ukf_substeps", self.ukf_substeps, 1)
         exploring = self.mppi.num_samples - round(self.mppi.refine_fraction * self.mppi.num_samples)
         if self.proposals.count > exploring - 1:

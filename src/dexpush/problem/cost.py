@@ -240,17 +240,20 @@ def obstacle_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
     return cost + w.C_margin * depth if graded else cost
 
 
-def running_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
+def running_cost(x: State, scene: Scene, w: CostWeights, other: State | None = None) -> jnp.ndarray:
     """l(x) + P(x) of eq. (9c–9e) (P: :func:`obstacle_cost`) for states x ((..., 5) array or 5-tuple). Its goal
     distance is the straight one, or the detour round discs; along the cost-to-go too with
-    ``w.guidance_running``."""
+    ``w.guidance_running``. With ``other`` (the same samples' states under a second model), P is the larger of
+    P(x) and P(other)."""
     xb, yb, th, xc, yc = components(x)
     d2 = _goal_distance_sq(xb, yb, th, scene, w.c, guided=w.guidance_running)
     gap = jnp.sqrt((xc - xb) ** 2 + (yc - yb) ** 2)
     cost = w.q_r1 * d2 + w.q_r2 * jnp.maximum(gap - scene.r_s, 0.0)
     if not scene.has_obstacles:
         return cost
-    return cost + obstacle_cost(x, scene, w)
+    if other is None:
+        return cost + obstacle_cost(x, scene, w)
+    return cost + jnp.maximum(obstacle_cost(x, scene, w), obstacle_cost(other, scene, w))
 
 
 def terminal_cost(x: State, scene: Scene, w: CostWeights) -> jnp.ndarray:
