@@ -73,7 +73,8 @@ def setup_of(record: dict) -> dict:
     before docs/robot.md#the-objects-clearance, the filter had no object watch; before
     docs/robot.md#libfrankas-filter, the arm's stream went through libfranka's 100-Hz low-pass; without the arm
     there is no stream to filter; before docs/workspaces.md#the-endgame-push-2026-12-07 there was no endgame
-    push; every record names its method, MPPI with the UKF unless ``--method`` said otherwise)."""
+    push; every record names its method, MPPI with the UKF unless ``--method`` said otherwise; records without
+    ``obstacles_under_start`` ran without it)."""
     filtered = record.get("filtered", record["plant"] != "physics")
     annulus = "bent_way_room_m" in record or "bent_way_room_m" in record.get("robot", {})
     return {"plant": record["plant"], "filter": "on" if filtered else "off",
@@ -81,7 +82,8 @@ def setup_of(record: dict) -> dict:
             "band": "annulus" if annulus else "chord", "area margin": record.get("workspace_margin", 0.25),
             "object watch": "on" if record.get("object_watch", False) else "off",
             "libfranka cutoff": None if record["plant"] == "physics" else record.get("cutoff_frequency", 100.0),
-            "endgame push": "on" if record.get("endgame_push", False) else "off", "method": record["method"]}
+            "endgame push": "on" if record.get("endgame_push", False) else "off", "method": record["method"],
+            "obstacles under start": "on" if record.get("obstacles_under_start", False) else "off"}
 
 
 def row(records: list[dict]) -> dict:
@@ -193,7 +195,7 @@ def main() -> None:
              "band": "annulus", "area margin": robot.workspace_margin,
              "libfranka cutoff": None if args.without_arm else robot.driver.cutoff_frequency,
              "endgame push": "on" if settings.push_plan.enabled and settings.push_plan.endgame.enabled else "off",
-             "method": args.method}
+             "method": args.method, "obstacles under start": "on" if settings.obstacles_under_start else "off"}
     setup["object watch"] = "on" if setup["filter"] == "on" and robot.object_watch is not None else "off"
     other = sorted({k for r in records for k, v in setup_of(r).items() if v != setup[k]})
     if other:

@@ -499,6 +499,10 @@ def test_the_robot_benchmarks_object_watch_needs_the_filter_and_a_folder_of_its_
     monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--object-watch"])
     with pytest.raises(SystemExit, match=r"holds episodes with another object watch than this run's"):
         robot_sim.main()
+    assert robot_sim.setup_of(record)["obstacles under start"] == "off"
+    monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--obstacles-under-start"])
+    with pytest.raises(SystemExit, match=r"holds episodes with another obstacles under start than this run's"):
+        robot_sim.main()
     monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--method", "mppi"])    # MPPI from the prior alone
     with pytest.raises(SystemExit, match=r"holds episodes with another method than this run's \(method mppi\)"):
         robot_sim.main()
