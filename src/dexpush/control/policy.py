@@ -185,8 +185,10 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
     period as the next warm start. A stall (:func:`watch_progress`) zeroes the warm start first.
     Within ``endgame.distance_m`` of the goal the iteration weights its samples with
     ``endgame.temperature``. From a state inside the obstacle margin the plan may not come nearer
-    than that state (:func:`dexpush.problem.cost.plan_margin`); ``mppi.spread_cap`` acts only where the scene
-    has something to keep clear of (docs/controller.md#the-temperature-beside-obstacles). ``predicted_m`` is
+    than that state (:func:`dexpush.problem.cost.plan_margin`). With ``obstacles_under_start`` (and the UKF) each
+    sample is rolled out under λ_pred and under the start's λ, and its P of (9e) is the larger of the two.
+    ``mppi.spread_cap`` acts only where the scene has something to keep clear of
+    (docs/controller.md#the-temperature-beside-obstacles). ``predicted_m`` is
     how far (m) the object's footprint moved in the prediction that made ``x`` from the newest frame (0 for an
     observation); the margin grows by ``prediction_margin.gain`` times it, up to ``prediction_margin.max_m`` more.
     After a stall restart a push is searched and carried out past the horizon (``settings.push_plan``,

@@ -131,7 +131,8 @@ class ControllerSettings:
     mu: float = MU_C              #: pusher–object friction μ_c assumed by the model
     estimate_params: bool = False #: run the UKF (paper Fig. 5) and plan with its estimate
     #: with the UKF: charge each sample the larger of its obstacle costs under the estimate and under λ_pred's start
-    #: (a second rollout per sample where the problem has obstacles; docs/robot.md#where-the-boxs-touches-come-from)
+    #: (a second rollout per sample where the problem has obstacles; without the UKF it changes nothing;
+    #: docs/robot.md#where-the-boxs-touches-come-from-2026-12-07-late-night)
     obstacles_under_start: bool = False
     ukf: UKFSettings = field(default_factory=UKFSettings)
     ukf_substeps: int = 10        #: Euler substeps per period in the UKF's window replay
