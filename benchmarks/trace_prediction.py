@@ -18,10 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
+from dexpush.common.interfaces import CONTROL_PERIOD_S
 from dexpush.experiments.registry import SHAPES, make_shape
 from dexpush.robot.object_watch import object_gaps
-
-CONTROL_PERIOD = 0.04
 
 
 def params_triple(text: str) -> tuple[float, float, float]:
@@ -73,7 +72,7 @@ def main() -> None:
     def gap(x: np.ndarray) -> float:
         return float(object_gaps(shape.footprint_world(np.asarray(x[:3], np.float64)), discs, ())[0]) * 1e3
 
-    runs = [np.asarray(replay(contour, x0, u, CONTROL_PERIOD, jnp.asarray(lam, jnp.float32))) for _, lam in models]
+    runs = [np.asarray(replay(contour, x0, u, CONTROL_PERIOD_S, jnp.asarray(lam, jnp.float32))) for _, lam in models]
     print(f"{args.trace.name}, step {k0}: true gap {gap(states[k0]):.2f} mm, "
           + "; ".join(f"λ {label} = [{', '.join(f'{v:.4g}' for v in lam)}]" for label, lam in models))
     print("step | true gap (mm) | " + " | ".join(f"λ {label} gap" for label, _ in models)
