@@ -190,13 +190,14 @@ def main() -> None:
     except ValueError as exc:
         raise SystemExit(f"error: {exc}") from None
     robot = dataclasses.replace(robot, driver=driver)
-    setup = {"plant": "physics" if args.without_arm else "franka-sim",
-             "filter": "on" if args.with_filter or not args.without_arm else "off", "reach": robot.driver.reach,
-             "band": "annulus", "area margin": robot.workspace_margin,
-             "libfranka cutoff": None if args.without_arm else robot.driver.cutoff_frequency,
-             "endgame push": "on" if settings.push_plan.enabled and settings.push_plan.endgame.enabled else "off",
-             "method": args.method, "obstacles under start": "on" if settings.obstacles_under_start else "off"}
-    setup["object watch"] = "on" if setup["filter"] == "on" and robot.object_watch is not None else "off"
+    filtered = args.with_filter or not args.without_arm
+    kept = {"endgame_push": settings.push_plan.enabled and settings.push_plan.endgame.enabled,   # in every record
+            "obstacles_under_start": settings.obstacles_under_start, "reach": list(robot.driver.reach),
+            "cutoff_frequency": None if args.without_arm else robot.driver.cutoff_frequency,
+            "workspace_margin": robot.workspace_margin, "filtered": filtered,
+            "object_watch": filtered and robot.object_watch is not None}
+    setup = setup_of({**kept, "plant": "physics" if args.without_arm else "franka-sim", "method": args.method,
+                      "bent_way_room_m": None})       # what this run's records will say, as setup_of reads them
     other = sorted({k for r in records for k, v in setup_of(r).items() if v != setup[k]})
     if other:
         raise SystemExit(f"error: {path} holds episodes with another {' and '.join(other)} than this run's "
@@ -234,11 +235,7 @@ def main() -> None:
                 rec = {**dataclasses.asdict(episode.record), "shape": shape_name, **side,
                        "spread_cap": settings.mppi.spread_cap, "guidance_turn_m": settings.weights.guidance_turn_m,
                        "guidance_goal_heading": settings.weights.guidance_goal_heading,
-                       "push_plan": settings.push_plan.enabled, "endgame_push": setup["endgame push"] == "on",
-                       "obstacles_under_start": settings.obstacles_under_start,
-                       "reach": list(robot.driver.reach), "cutoff_frequency": setup["libfranka cutoff"],
-                       "workspace_margin": robot.workspace_margin,
-                       "filtered": setup["filter"] == "on", "object_watch": setup["object watch"] == "on",
+                       "push_plan": settings.push_plan.enabled, **kept,
                        "wall_s": round(time.perf_counter() - t0, 1)}
                 if args.traces:
                     save_trace(out / "traces" / f"{task.key}_{shape_name}_{seed}.npz", episode)
