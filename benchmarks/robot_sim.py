@@ -86,6 +86,13 @@ def setup_of(record: dict) -> dict:
             "obstacles under start": "on" if record.get("obstacles_under_start", False) else "off"}
 
 
+def least_clearance_mm(records: list[dict]) -> str:
+    """The least object–obstacle clearance over ``records`` in mm (``clearance_m``; negative: a touch's depth), "–"
+    where no record has an obstacle."""
+    values = [r["clearance_m"] for r in records if r.get("clearance_m") is not None]
+    return f"{1000 * min(values):.1f}" if values else "–"
+
+
 def row(records: list[dict]) -> dict:
     ok = [r for r in records if r["success"]]
     rob = [r["robot"] for r in records]
@@ -97,7 +104,7 @@ def row(records: list[dict]) -> dict:
             "reflex": int(sum(r["reflex_limit_steps"] for r in rob)),
             "joint": int(sum(r["joint_limit_steps"] for r in rob)),
             "violations": int(sum(r["workspace_exits"] + r["speed_limit_exceeded"] for r in rob)),
-            "touches": int(sum(r["collisions"] > 0 for r in records)),
+            "touches": int(sum(r["collisions"] > 0 for r in records)), "least_mm": least_clearance_mm(records),
             "late": int(sum(r["late_steps"] for r in rob)), "rtf": med("real_time_factor", rob),
             "max_acc": float(max(r["max_commanded_acceleration"] for r in rob)) if rob else float("nan"),
             "max_jerk": float(max(r["max_commanded_jerk"] for r in rob)) if rob else float("nan")}
@@ -106,8 +113,9 @@ def row(records: list[dict]) -> dict:
 def arm_free_table(records: list[dict]) -> str:
     """The table of ``--without-arm`` records: no robot side, the failures' distances to the goal instead."""
     keys = sorted({(r["task"], r["shape"]) for r in records})
-    lines = ["| task | shape | success | time to goal (s, median) | touches | failures end (cm from the goal) | "
-             "straight way's room in the band (cm, median) | bent way's room (cm, median) |", "|" + "---|" * 8]
+    lines = ["| task | shape | success | time to goal (s, median) | touches | least clearance (mm) | "
+             "failures end (cm from the goal) | straight way's room in the band (cm, median) | "
+             "bent way's room (cm, median) |", "|" + "---|" * 9]
     for task, shape in keys:
         rs = [x for x in records if (x["task"], x["shape"]) == (task, shape)]
         ok = [x["time_s"] for x in rs if x["success"]]
@@ -115,7 +123,7 @@ def arm_free_table(records: list[dict]) -> str:
                          if not x["success"]) or "–"
         room, bent = ([x[k] for x in rs if k in x] for k in ("way_room_m", "bent_way_room_m"))
         lines.append(f"| {task} | {shape} | {len(ok)}/{len(rs)} | {np.median(ok) if ok else float('nan'):.1f} | "
-                     f"{sum(x['collisions'] > 0 for x in rs)} | {ends} | "
+                     f"{sum(x['collisions'] > 0 for x in rs)} | {least_clearance_mm(rs)} | {ends} | "
                      f"{100 * np.median(room) if room else float('nan'):.1f} | "
                      f"{100 * np.median(bent) if bent else float('nan'):.1f} |")
     return "\n".join(lines) + "\n"
@@ -124,15 +132,15 @@ def arm_free_table(records: list[dict]) -> str:
 def table(records: list[dict]) -> str:
     keys = sorted({(r["task"], r["shape"]) for r in records})
     lines = ["| task | shape | success | time to goal (s, median) | tip tracking error (mm, median / worst p99) | "
-             "reflex-level steps | joint-limit steps | filter violations | touches | late steps | max commanded "
-             "acc. (m/s²) / jerk (m/s³) | real-time factor |", "|" + "---|" * 12]
+             "reflex-level steps | joint-limit steps | filter violations | touches | least clearance (mm) | late "
+             "steps | max commanded acc. (m/s²) / jerk (m/s³) | real-time factor |", "|" + "---|" * 13]
     for task, shape in keys:
         r = row([x for x in records if (x["task"], x["shape"]) == (task, shape)])
         time_s = "–" if not r["success"] else f"{r['time_s']:.1f}"     # (no success: no time to goal)
         lines.append(f"| {task} | {shape} | {r['success']}/{r['trials']} | {time_s} | "
                      f"{r['track_med_mm']:.2f} / {r['track_p99_mm']:.2f} | {r['reflex']} | {r['joint']} | "
-                     f"{r['violations']} | {r['touches']} | {r['late']} | {r['max_acc']:.1f} / {r['max_jerk']:.0f} | "
-                     f"{r['rtf']:.2f} |")
+                     f"{r['violations']} | {r['touches']} | {r['least_mm']} | {r['late']} | "
+                     f"{r['max_acc']:.1f} / {r['max_jerk']:.0f} | {r['rtf']:.2f} |")
     return "\n".join(lines) + "\n"
 
 

@@ -591,3 +591,28 @@ def test_the_trace_prediction_replays_the_commands_through_the_model(tmp_path, m
     monkeypatch.setattr(sys, "argv", ["trace_prediction.py", str(tmp_path / "bad.npz"), "--from", "0"])
     with pytest.raises(SystemExit, match="not an episode's arrays"):
         script.main()
+
+
+def test_the_robot_benchmarks_tables_show_the_least_clearance_of_each_row(tmp_path) -> None:
+    """``robot_sim.py``'s tables give each row's least object–obstacle clearance in mm, a touch's depth negative, and
+    "–" for a row without obstacles."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("robot_sim", Path(__file__).resolve().parents[1] / "benchmarks"
+                                                  / "robot_sim.py")
+    robot_sim = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(robot_sim)
+    arm = {"tracking_error_mm_median": 0.3, "tracking_error_mm_p99": 3.0, "reflex_limit_steps": 0,
+           "joint_limit_steps": 0, "workspace_exits": 0, "speed_limit_exceeded": 0, "late_steps": 0,
+           "real_time_factor": 1.0, "max_commanded_acceleration": 4.0, "max_commanded_jerk": 4000.0}
+
+    def record(task: str, clearance: float | None, collisions: int = 0) -> dict:
+        return {"task": task, "shape": "rect", "success": True, "time_s": 20.0, "collisions": collisions,
+                "clearance_m": clearance, "final_error_m": 0.01, "robot": arm}
+
+    records = [record("I", None), record("III", 0.0145), record("III", -0.0003, collisions=1)]
+    for table in (robot_sim.table, robot_sim.arm_free_table):
+        lines = table(records).splitlines()
+        column = [c.strip() for c in lines[0].split("|")].index("least clearance (mm)")
+        cells = {line.split("|")[1].strip(): line.split("|")[column].strip() for line in lines[2:]}
+        assert cells == {"I": "–", "III": "-0.3"}
