@@ -106,6 +106,7 @@ def row(records: list[dict]) -> dict:
             "violations": int(sum(r["workspace_exits"] + r["speed_limit_exceeded"] for r in rob)),
             "touches": int(sum(r["collisions"] > 0 for r in records)), "least_mm": least_clearance_mm(records),
             "late": int(sum(r["late_steps"] for r in rob)), "rtf": med("real_time_factor", rob),
+            "planning_ms": med("planning_ms_median", records),
             "max_acc": float(max(r["max_commanded_acceleration"] for r in rob)) if rob else float("nan"),
             "max_jerk": float(max(r["max_commanded_jerk"] for r in rob)) if rob else float("nan")}
 
@@ -133,13 +134,14 @@ def table(records: list[dict]) -> str:
     keys = sorted({(r["task"], r["shape"]) for r in records})
     lines = ["| task | shape | success | time to goal (s, median) | tip tracking error (mm, median / worst p99) | "
              "reflex-level steps | joint-limit steps | filter violations | touches | least clearance (mm) | late "
-             "steps | max commanded acc. (m/s²) / jerk (m/s³) | real-time factor |", "|" + "---|" * 13]
+             "steps | planning (ms, median) | max commanded acc. (m/s²) / jerk (m/s³) | real-time factor |",
+             "|" + "---|" * 14]
     for task, shape in keys:
         r = row([x for x in records if (x["task"], x["shape"]) == (task, shape)])
         time_s = "–" if not r["success"] else f"{r['time_s']:.1f}"     # (no success: no time to goal)
         lines.append(f"| {task} | {shape} | {r['success']}/{r['trials']} | {time_s} | "
                      f"{r['track_med_mm']:.2f} / {r['track_p99_mm']:.2f} | {r['reflex']} | {r['joint']} | "
-                     f"{r['violations']} | {r['touches']} | {r['least_mm']} | {r['late']} | "
+                     f"{r['violations']} | {r['touches']} | {r['least_mm']} | {r['late']} | {r['planning_ms']:.1f} | "
                      f"{r['max_acc']:.1f} / {r['max_jerk']:.0f} | {r['rtf']:.2f} |")
     return "\n".join(lines) + "\n"
 

@@ -595,7 +595,7 @@ def test_the_trace_prediction_replays_the_commands_through_the_model(tmp_path, m
 
 def test_the_robot_benchmarks_tables_show_the_least_clearance_of_each_row(tmp_path) -> None:
     """``robot_sim.py``'s tables give each row's least object–obstacle clearance in mm, a touch's depth negative, and
-    "–" for a row without obstacles."""
+    "–" for a row without obstacles; the arm's table the median of the episodes' median planning times."""
     import importlib.util
 
     spec = importlib.util.spec_from_file_location("robot_sim", Path(__file__).resolve().parents[1] / "benchmarks"
@@ -608,7 +608,7 @@ def test_the_robot_benchmarks_tables_show_the_least_clearance_of_each_row(tmp_pa
 
     def record(task: str, clearance: float | None, collisions: int = 0) -> dict:
         return {"task": task, "shape": "rect", "success": True, "time_s": 20.0, "collisions": collisions,
-                "clearance_m": clearance, "final_error_m": 0.01, "robot": arm}
+                "clearance_m": clearance, "final_error_m": 0.01, "planning_ms_median": 7.0, "robot": arm}
 
     records = [record("I", None), record("III", 0.0145), record("III", -0.0003, collisions=1)]
     for table in (robot_sim.table, robot_sim.arm_free_table):
@@ -616,3 +616,5 @@ def test_the_robot_benchmarks_tables_show_the_least_clearance_of_each_row(tmp_pa
         column = [c.strip() for c in lines[0].split("|")].index("least clearance (mm)")
         cells = {line.split("|")[1].strip(): line.split("|")[column].strip() for line in lines[2:]}
         assert cells == {"I": "–", "III": "-0.3"}
+    header = [c.strip() for c in robot_sim.table(records).splitlines()[0].split("|")]
+    assert robot_sim.table(records).splitlines()[2].split("|")[header.index("planning (ms, median)")].strip() == "7.0"
