@@ -83,19 +83,20 @@ def test_a_folder_refuses_runs_with_other_settings(tmp_path: Path) -> None:
 
 
 def test_a_folder_from_before_the_spread_cap_guidance_and_push_plan_reads_them_as_off(tmp_path: Path) -> None:
-    """A settings.json written before these options existed (the physics table of 2026-12-02 lacks them): their
-    records were made without them, so a run with today's defaults (all three on) is refused, not mixed in."""
+    """A settings.json written before these options existed (the physics table of 2026-12-02 lacks them, and every
+    table before 2026-12-08 the obstacle cost under the start): their records were made without them, so a run
+    with today's defaults (all on) is refused, not mixed in."""
     from dexpush.experiments.results_folder import run_settings, saved_settings
 
     wanted = run_settings("model", None, None, 2, 2)
     controller = json.loads(json.dumps(wanted["controller"]))
-    del controller["mppi"]["spread_cap"], controller["push_plan"]
+    del controller["mppi"]["spread_cap"], controller["push_plan"], controller["obstacles_under_start"]
     for key in ("guidance", "guidance_goal_heading"):
         del controller["weights"][key]
     (tmp_path / "settings.json").write_text(json.dumps({"settings": {**wanted, "controller": controller}}))
     read = saved_settings(tmp_path / "settings.json", wanted["controller"])["controller"]
     assert read["mppi"]["spread_cap"] is None and read["push_plan"]["enabled"] is False
-    assert read["push_plan"]["endgame"]["enabled"] is False
+    assert read["push_plan"]["endgame"]["enabled"] is False and read["obstacles_under_start"] is False
     assert read["weights"]["guidance"] is False and read["weights"]["guidance_goal_heading"] is False
     assert read["push_plan"]["targets"] == wanted["controller"]["push_plan"]["targets"]   # the rest at today's
     with pytest.raises(ValueError, match=r"other settings \(controller.mppi.spread_cap: None there, 1000000.0 now"):

@@ -493,17 +493,18 @@ def test_the_robot_benchmarks_object_watch_needs_the_filter_and_a_folder_of_its_
     assert robot_sim.setup_of(arm_record)["libfranka cutoff"] == 1000.0
     # records before the endgame push hold no key for it: they ran without it
     assert robot_sim.setup_of({k: v for k, v in record.items() if k != "endgame_push"})["endgame push"] == "off"
-    monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--object-watch", "--no-endgame-push"])
+    before = [*argv, "--with-filter", "--no-obstacles-under-start"]     # the record is from before the default
+    monkeypatch.setattr(sys, "argv", [*before, "--object-watch", "--no-endgame-push"])
     with pytest.raises(SystemExit, match=r"holds episodes with another endgame push and object watch than this run's"):
         robot_sim.main()
-    monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--object-watch"])
+    monkeypatch.setattr(sys, "argv", [*before, "--object-watch"])
     with pytest.raises(SystemExit, match=r"holds episodes with another object watch than this run's"):
         robot_sim.main()
     assert robot_sim.setup_of(record)["obstacles under start"] == "off"
-    monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--obstacles-under-start"])
+    monkeypatch.setattr(sys, "argv", [*argv, "--with-filter"])          # today's default: on
     with pytest.raises(SystemExit, match=r"holds episodes with another obstacles under start than this run's"):
         robot_sim.main()
-    monkeypatch.setattr(sys, "argv", [*argv, "--with-filter", "--method", "mppi"])    # MPPI from the prior alone
+    monkeypatch.setattr(sys, "argv", [*before, "--method", "mppi"])    # MPPI from the prior alone
     with pytest.raises(SystemExit, match=r"holds episodes with another method than this run's \(method mppi\)"):
         robot_sim.main()
 

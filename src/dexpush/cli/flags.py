@@ -122,8 +122,8 @@ def add_planner_flags(parser: argparse.ArgumentParser) -> None:
                         "docs/performance.md#samples-against-success-a-pareto-table; default: 1024)")
     g.add_argument("--obstacles-under-start", action=argparse.BooleanOptionalAction, default=None,
                    help="with the UKF, charge each sample the larger of its obstacle costs under the estimate and "
-                        "under λ_pred's start (obstacles_under_start; docs/robot.md#where-the-boxs-touches-come-from-"
-                        "2026-12-07-late-night; default: off)")
+                        "under λ_pred's start (obstacles_under_start; "
+                        "docs/robot.md#the-obstacle-cost-under-the-estimate-and-the-start; default: on)")
     g.add_argument("--prediction-margin", type=nonnegative_float, default=None, metavar="GAIN",
                    help="the obstacle margin grows by GAIN times how far the object was predicted on from "
                         "the newest camera frame, up to 2 cm more; 0 keeps it fixed (prediction_margin.gain; "

@@ -132,8 +132,8 @@ class ControllerSettings:
     estimate_params: bool = False #: run the UKF (paper Fig. 5) and plan with its estimate
     #: with the UKF: charge each sample the larger of its obstacle costs under the estimate and under λ_pred's start
     #: (a second rollout per sample where the problem has obstacles; without the UKF it changes nothing;
-    #: docs/robot.md#where-the-boxs-touches-come-from-2026-12-07-late-night)
-    obstacles_under_start: bool = False
+    #: docs/robot.md#the-obstacle-cost-under-the-estimate-and-the-start)
+    obstacles_under_start: bool = True
     ukf: UKFSettings = field(default_factory=UKFSettings)
     ukf_substeps: int = 10        #: Euler substeps per period in the UKF's window replay
     stall: StallSettings = field(default_factory=StallSettings)

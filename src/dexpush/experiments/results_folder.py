@@ -90,7 +90,8 @@ def run_settings(plant: str, sensor: Sensor | None, settings: ControllerSettings
 
 #: what a settings.json of an older dexpush lacks, read as the values its records were made with: each
 #: of these options was off in the versions without it
-ABSENT_MEANS = {"stall": {"after_s": None}, "endgame": {"temperature": None}, "prediction_margin": {"gain": 0.0},
+ABSENT_MEANS = {"obstacles_under_start": False, "stall": {"after_s": None}, "endgame": {"temperature": None},
+                "prediction_margin": {"gain": 0.0},
                 "weights": {"detour": False, "C_margin": None, "guidance": False, "guidance_goal_heading": False},
                 "mppi": {"update": "clipped", "spread_cap": None},
                 "push_plan": {"enabled": False, "endgame": {"enabled": False}}}
