@@ -356,3 +356,32 @@ def test_a_local_ray_instance_starts_only_in_a_loopback_only_namespace(tmp_path,
     monkeypatch.setenv("DEXPUSH_IN_NAMESPACE", "1")
     assert main(["bench", "--tasks", "I", "--shapes", "rect", "--trials", "1", "--engine", "ray", "--quiet",
                  "--out", str(tmp_path / "b")]) == 2
+
+
+def test_bench_diff_pairs_two_tables_trial_by_trial(tmp_path: Path, capsys) -> None:
+    """``benchmarks/bench_diff.py`` counts the records that are the same (planning times aside), and gives each
+    condition's success and mean time in both; a folder without a table is a one-line error."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("bench_diff", Path(__file__).resolve().parents[1] / "benchmarks"
+                                                  / "bench_diff.py")
+    bench_diff = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench_diff)
+
+    def trial(seed: int, time_s: float, ms: float = 1.0, success: bool = True) -> dict:
+        return {"task": "III", "shape": "rect", "params": "unknown", "method": "mppi-ukf", "seed": seed,
+                "success": success, "steps": int(time_s / 0.04), "time_s": time_s, "object_path_m": 0.8,
+                "pusher_path_m": 1.4, "final_error_m": 0.005, "final_error_deg": 1.0, "collisions": 0,
+                "clearance_m": 0.01, "planning_ms_median": ms}
+
+    for name, trials in (("old", [trial(0, 10.0), trial(1, 20.0), trial(2, 30.0)]),
+                         ("new", [trial(0, 10.0, ms=9.0), trial(1, 16.0), trial(2, 60.0, success=False)])):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "benchmark.json").write_text(json.dumps({"trials": trials}))
+    assert bench_diff.main([str(tmp_path / "old"), str(tmp_path / "new")]) == 0
+    out = capsys.readouterr().out.strip().splitlines()
+    assert json.loads(out[-1]) == {"paired": 3, "same": 1, "only_old": 0, "only_new": 0, "old_success": 3,
+                                   "new_success": 2}
+    assert out[2] == "| III rect unknown mppi-ukf | 1/3 | 3 → 2 | 20.000 → 13.000 | -35.0 % |"
+    with pytest.raises(SystemExit, match=r"^error: .*benchmark.json not found"):
+        bench_diff.main([str(tmp_path / "old"), str(tmp_path)])
