@@ -144,3 +144,31 @@ def test_a_per_lane_estimate_flag_updates_exactly_the_lanes_it_marks() -> None:
         a, b, c = np.asarray(a), np.asarray(b), np.asarray(c)
         np.testing.assert_array_equal(a[1::2], c[1::2])
         np.testing.assert_allclose(a[::2], b[::2], rtol=1e-4, atol=1e-6)
+
+
+def test_a_batch_takes_the_obstacle_cost_under_the_start_as_the_controller_does() -> None:
+    """``obstacles_under_start`` in the batched simulator, whose estimate flag is traced per lane: with obstacles,
+    ``plan_step`` traces the program of a controller with the UKF (each sample rolled out twice), not the one of a
+    controller without it (traced only, nothing compiled)."""
+    import jax
+    import jax.numpy as jnp
+
+    from dexpush.control.policy import plan_step, policy_init
+
+    task, shape = get_task("III"), make_shape("rect")
+    problem = task.problem(shape)
+    settings = ControllerSettings()
+    state = policy_init(UNKNOWN, settings, 0, shape.footprint_box)
+    x = jnp.asarray([-0.4, 0.0, 0.0, -0.52, 0.0], jnp.float32)
+
+    def equations(estimating: object, scene: object = problem.local_scene) -> int:
+        def plan(st, xs, *flag):
+            return plan_step(st, xs, contour=problem.contour, scene=scene, settings=settings,
+                             estimating=flag[0] if flag else estimating)
+        args = (state, x, jnp.bool_(True)) if estimating == "traced" else (state, x)
+        return str(jax.make_jaxpr(plan)(*args)).count(" = ")
+
+    traced, on, off = equations("traced"), equations(True), equations(False)
+    assert traced == on > off
+    no_obstacles = get_task("I").problem(shape).local_scene
+    assert equations("traced", no_obstacles) == equations(False, no_obstacles)

@@ -176,8 +176,8 @@ def _temperature(x: jnp.ndarray, scene: Scene, settings: ControllerSettings) -> 
 
 
 def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene: Scene,
-              settings: ControllerSettings, predicted_m: jnp.ndarray | float = 0.0, batch_axis: str | None = None
-              ) -> tuple[ControllerState, jnp.ndarray, MPPIResult]:
+              settings: ControllerSettings, predicted_m: jnp.ndarray | float = 0.0, batch_axis: str | None = None,
+              estimating: jnp.ndarray | bool | None = None) -> tuple[ControllerState, jnp.ndarray, MPPIResult]:
     """One MPPI iteration (eq. 9–10) from state ``x`` with λ_pred. Pure and jit-able.
 
     The command is the first input of the new sequence, clipped to ±v_max/√2 (zero, and a
@@ -185,8 +185,10 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
     period as the next warm start. A stall (:func:`watch_progress`) zeroes the warm start first.
     Within ``endgame.distance_m`` of the goal the iteration weights its samples with
     ``endgame.temperature``. From a state inside the obstacle margin the plan may not come nearer
-    than that state (:func:`dexpush.problem.cost.plan_margin`). With ``obstacles_under_start`` (and the UKF) each
-    sample is rolled out under λ_pred and under the start's λ, and its P of (9e) is the larger of the two.
+    than that state (:func:`dexpush.problem.cost.plan_margin`). With ``obstacles_under_start`` and the UKF
+    (``estimating``: ``settings.estimate_params`` unless given; a traced flag, as in a batch whose members differ,
+    counts as on) each sample is rolled out under λ_pred and under the start's λ, and its P of (9e) is the larger of
+    the two (a member that does not estimate keeps λ_pred at its start, so both rollouts are the same).
     ``mppi.spread_cap`` acts only where the scene has something to keep clear of
     (docs/controller.md#the-temperature-beside-obstacles). ``predicted_m`` is
     how far (m) the object's footprint moved in the prediction that made ``x`` from the newest frame (0 for an
@@ -211,7 +213,9 @@ def plan_step(state: ControllerState, x: jnp.ndarray, *, contour: Contour, scene
     plan_scene = plan_margin(x, scene, weights, extra)     # from inside the margin: no nearer than now
     durations = slot_durations(mp, stretch)
     x0 = tuple(x[i] for i in range(5))                       # rollouts carry a tuple
-    if settings.obstacles_under_start and settings.estimate_params and scene.has_obstacles:
+    estimating = settings.estimate_params if estimating is None else estimating
+    no_estimate = isinstance(estimating, bool | np.bool_) and not estimating      # known off at trace time
+    if settings.obstacles_under_start and scene.has_obstacles and not no_estimate:
         # each sample rolled out under the estimate and under the start: its obstacle cost is the larger
         x0, params = (x0, x0), (state.params, state.start)
 
@@ -293,4 +297,5 @@ def policy_step(state: ControllerState, observation: jnp.ndarray, estimate: jnp.
     :func:`estimate_step`, then :func:`plan_step` from the observed state (``batch_axis``: see there). Pure and
     jit-able."""
     state = estimate_step(state, observation, estimate, contour=contour, settings=settings)
-    return plan_step(state, observation, contour=contour, scene=scene, settings=settings, batch_axis=batch_axis)
+    return plan_step(state, observation, contour=contour, scene=scene, settings=settings, batch_axis=batch_axis,
+                     estimating=estimate)
